@@ -1,0 +1,40 @@
+"""Errors a user can cause, and the one-line, exit-code-2 way the CLIs report them."""
+
+from __future__ import annotations
+
+import functools
+import sys
+from collections.abc import Callable
+
+EXIT_USAGE = 2
+
+
+class InputError(ValueError):
+    """Bad user input (missing/corrupt file, wrong format, hostile content).
+
+    The CLIs print ``<prog>: error: <message>`` on one line and exit with code 2.
+    """
+
+
+def cli_entry(prog: str) -> Callable[[Callable[..., int | None]], Callable[..., int]]:
+    """Decorate a CLI ``main`` so user errors become one line on stderr and exit code 2."""
+
+    def wrap(main: Callable[..., int | None]) -> Callable[..., int]:
+        @functools.wraps(main)
+        def run(*args, **kwargs) -> int:
+            try:
+                return main(*args, **kwargs) or 0
+            except InputError as exc:
+                print(f"{prog}: error: {_one_line(exc)}", file=sys.stderr)
+                return EXIT_USAGE
+            except KeyboardInterrupt:
+                print(f"{prog}: interrupted", file=sys.stderr)
+                return 130
+
+        return run
+
+    return wrap
+
+
+def _one_line(exc: BaseException) -> str:
+    return " ".join(str(exc).split()) or type(exc).__name__

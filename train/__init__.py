@@ -1,0 +1,1 @@
+"""Training program for the Gaussian-texton autoencoder (``python -m train``, a Hydra app)."""
