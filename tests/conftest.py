@@ -1,0 +1,38 @@
+"""Shared fixtures: random but valid texton sets."""
+
+from __future__ import annotations
+
+import pytest
+import torch
+import torch.nn.functional as F
+
+from neuraltex.textons import Textons
+
+
+def make_textons(B: int = 2, K: int = 5, C: int = 4, *, dtype=torch.float32, seed: int = 0,
+                 scale: float = 0.15) -> Textons:
+    g = torch.Generator().manual_seed(seed)
+    A = torch.randn(B, K, 2, 2, generator=g, dtype=dtype) * scale
+    cov = A @ A.transpose(-1, -2) + 0.002 * torch.eye(2, dtype=dtype)
+    order = torch.stack([torch.randperm(K, generator=g) for _ in range(B)])
+    return Textons(
+        mu=torch.rand(B, K, 2, generator=g, dtype=dtype),
+        cov=cov,
+        v=F.normalize(torch.randn(B, K, 2, generator=g, dtype=dtype), dim=-1),
+        f=torch.randn(B, K, C, generator=g, dtype=dtype),
+        p=torch.rand(B, K, generator=g, dtype=dtype),
+        delta=torch.rand(B, K, generator=g, dtype=dtype),
+        order=order,
+    )
+
+
+def single(mu, cov, f=(1.0,), delta=1.0, v=(1.0, 0.0), order=0) -> Textons:
+    """One texton set holding one Gaussian (float64)."""
+    t = lambda x: torch.tensor(x, dtype=torch.float64)  # noqa: E731
+    return Textons(mu=t([[mu]]), cov=t([[cov]]), v=t([[v]]), f=t([[f]]), p=t([[delta]]),
+                   delta=t([[delta]]), order=torch.tensor([[order]]))
+
+
+@pytest.fixture
+def textons() -> Textons:
+    return make_textons()

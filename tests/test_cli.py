@@ -1,0 +1,46 @@
+import subprocess
+import sys
+
+import pytest
+
+from neuraltex import __version__
+from neuraltex.textons_file import load_textons, save_textons
+
+
+def run(*args: str, module: str = "neuraltex.cli") -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", module, *args], capture_output=True, text=True)
+
+
+@pytest.mark.parametrize("module, prog", [("neuraltex.cli", "neuraltex"), ("cvt.cli", "cvt")])
+def test_version_and_help(module, prog):
+    out = run("--version", module=module)
+    assert out.returncode == 0 and out.stdout.strip() == f"{prog} {__version__}"
+    out = run("--help", module=module)
+    assert out.returncode == 0 and f"usage: {prog}" in out.stdout
+
+
+def test_textons_summary_and_conversion(tmp_path, textons):
+    src, dst = tmp_path / "t.pt", tmp_path / "t.json"
+    save_textons(textons, src)
+    out = run("textons", str(src), "--to", str(dst))
+    assert out.returncode == 0, out.stderr
+    assert "2 set(s) x 5 textons" in out.stdout
+    assert load_textons(dst).mu.equal(textons.mu)
+
+
+@pytest.mark.parametrize("content, message", [
+    (None, "no such file"),
+    (b"{not json", "not valid JSON"),
+    (b'{"format": "neuraltex.textons", "version": 7}', "version 7"),
+    (b"\x89PNG\r\n\x1a\n garbage", "not valid JSON"),
+])
+def test_bad_texton_files_exit_2_with_one_line(tmp_path, content, message):
+    path = tmp_path / "bad.json"
+    if content is not None:
+        path.write_bytes(content)
+    out = run("textons", str(path), "--to", str(tmp_path / "out.json"))
+    assert out.returncode == 2
+    lines = out.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("neuraltex: error:") and message in lines[0]
+    assert "Traceback" not in out.stderr
+    assert not (tmp_path / "out.json").exists()
