@@ -1,0 +1,92 @@
+import math
+
+import pytest
+import torch
+
+from conftest import make_textons
+from neuraltex.consistency import consistency_loss, matching_cost
+from neuraltex.losses import (
+    ReconstructionLoss,
+    compactness_loss,
+    d_logistic_loss,
+    d_r1_loss,
+    entropy_loss,
+    g_nonsaturating_loss,
+    sliced_wasserstein_patches,
+)
+
+
+def test_entropy_zero_for_hard_masks_and_log_n_for_uniform():
+    hard = torch.zeros(1, 4, 6, 6)
+    hard[:, 0] = 1
+    assert entropy_loss(hard) == pytest.approx(0.0, abs=1e-9)
+    assert entropy_loss(torch.full((1, 4, 6, 6), 0.25)) == pytest.approx(math.log(4), rel=1e-5)
+
+
+def test_compactness_prefers_compact_segments():
+    from neuraltex.estimation import estimate_textons
+
+    H = W = 16
+    yy, xx = torch.meshgrid(torch.arange(H), torch.arange(W), indexing="ij")
+    blocks = (yy // 4) * 4 + xx // 4         # 16 compact 4x4 segments
+    scattered = (yy * W + xx) % 16           # 16 segments spread over the image
+    losses = []
+    for labels in (blocks, scattered):
+        m = torch.nn.functional.one_hot(labels, 16).permute(2, 0, 1).float()[None]
+        t = estimate_textons(m, torch.rand(1, 3, H, W), torch.rand(1, 2, H, W))
+        losses.append(compactness_loss(m, t.mu).item())
+    assert losses[0] < 0.2 * losses[1]
+
+
+def test_reconstruction_loss_is_zero_on_identity_and_masks_pixels():
+    with pytest.warns(UserWarning, match="randomly initialized"):
+        loss = ReconstructionLoss(backbone="auto")
+    assert loss.lpips.backbone_used == "random"
+    x = torch.rand(2, 3, 32, 32)
+    assert loss(x, x).item() == pytest.approx(0.0, abs=1e-6)
+    y = x.clone()
+    y[..., :8] = 1 - y[..., :8]
+    mask = torch.ones(2, 1, 32, 32)
+    mask[..., :8] = 0
+    assert ReconstructionLoss(w_lpips=0)(x, y, mask).item() == pytest.approx(0.0, abs=1e-6)
+    assert loss(x, y).item() > 0.1
+    with pytest.raises(FileNotFoundError, match="hub cache"):
+        ReconstructionLoss(backbone="pretrained")
+
+
+def test_sliced_wasserstein_ignores_layout_but_sees_colours():
+    g = torch.Generator().manual_seed(0)
+    x = torch.rand(1, 3, 32, 32, generator=g)
+    rolled = torch.roll(x, shifts=(7, 11), dims=(2, 3))  # same patches, other places
+    darker = x * 0.5
+    kw = dict(patch=2, generator=torch.Generator().manual_seed(1))
+    d_roll = sliced_wasserstein_patches(x, rolled, **kw).item()
+    kw["generator"] = torch.Generator().manual_seed(1)
+    d_dark = sliced_wasserstein_patches(x, darker, **kw).item()
+    assert d_roll < 0.05 * d_dark
+
+
+def test_gan_losses_and_r1():
+    zero = torch.zeros(4)
+    assert d_logistic_loss(zero, zero).item() == pytest.approx(2 * math.log(2))
+    assert g_nonsaturating_loss(zero).item() == pytest.approx(math.log(2))
+    x = torch.rand(3, 2, 4, 4, requires_grad=True)
+    w = torch.randn(2, 4, 4)
+    pred = (x * w).flatten(1).sum(1)  # D(x) = <w, x>, so grad = w
+    assert d_r1_loss(pred, x).item() == pytest.approx(w.square().sum().item(), rel=1e-5)
+
+
+def test_consistency_is_zero_for_a_permuted_copy_and_positive_otherwise():
+    t = make_textons(B=1, K=6, C=3, seed=2)
+    t.p = torch.ones_like(t.p)
+    masks = torch.rand(1, 6, 8, 8).softmax(1)
+    perm = torch.tensor([3, 0, 5, 1, 2, 4])
+    shuffled = t.index(perm)
+    assert consistency_loss(t, shuffled, masks, masks[:, perm]).item() == pytest.approx(0, abs=1e-5)
+    moved = t.translate(0.05, 0.0)
+    assert consistency_loss(t, moved, masks, masks).item() > 0.1
+    cost = matching_cost(t, shuffled, masks, masks[:, perm])
+    assert torch.equal(cost[0].argmin(dim=1), torch.argsort(perm))
+    # Textons marked invalid are left out: with none valid the loss vanishes.
+    none = torch.zeros(1, 6, dtype=torch.bool)
+    assert consistency_loss(t, moved, masks, masks, valid=none).item() == 0
