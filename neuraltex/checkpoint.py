@@ -1,0 +1,154 @@
+"""Self-describing checkpoints, written atomically and read without unpickling code.
+
+Two kinds:
+
+- **training checkpoints** (``.pt``): resolved config, model + discriminator weights, optimizer
+  and scheduler states, step, and every RNG state needed so a resumed run continues exactly.
+  Read with ``torch.load(weights_only=True)``: only tensors and plain containers come back.
+- **inference exports** (``.safetensors``): model weights plus a JSON header (format, version,
+  model config, training summary) and a SHA-256 of the tensor contents, so a file whose weights
+  were altered after export is rejected.
+
+Every problem with a file raises :class:`CheckpointError` (an :class:`InputError`) whose
+message fits on one line.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import pickle
+import random
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import torch
+
+from neuraltex.errors import InputError
+from neuraltex.fileio import atomic_path
+
+TRAIN_FORMAT = "neuraltex.train-checkpoint"
+EXPORT_FORMAT = "neuraltex.model"
+VERSION = 1
+
+
+class CheckpointError(InputError):
+    """A checkpoint or model file that is missing, corrupt, tampered with or incompatible."""
+
+
+# ------------------------------------------------------------------------- RNG state
+def rng_state() -> dict[str, Any]:
+    """Python, NumPy and torch RNG states as weights-only-loadable values."""
+    np_state = np.random.get_state()
+    state = {
+        "python": [list(x) if isinstance(x, tuple) else x for x in random.getstate()],
+        "numpy": {"key": torch.from_numpy(np_state[1].astype(np.int64)), "pos": int(np_state[2]),
+                  "has_gauss": int(np_state[3]), "cached": float(np_state[4])},
+        "torch": torch.get_rng_state(),
+    }
+    if torch.cuda.is_available():
+        state["cuda"] = torch.cuda.get_rng_state_all()
+    return state
+
+
+def set_rng_state(state: dict[str, Any]) -> None:
+    py = state["python"]
+    random.setstate((py[0], tuple(py[1]), py[2]))
+    n = state["numpy"]
+    np.random.set_state(("MT19937", n["key"].numpy().astype(np.uint32), n["pos"],
+                         n["has_gauss"], n["cached"]))
+    torch.set_rng_state(state["torch"])
+    if "cuda" in state and torch.cuda.is_available():
+        torch.cuda.set_rng_state_all(state["cuda"])
+
+
+# ----------------------------------------------------------------- training checkpoints
+def save_training_checkpoint(path: str | os.PathLike, *, step: int, config: dict,
+                             modules: dict[str, dict], optimizers: dict[str, dict],
+                             extra: dict | None = None) -> None:
+    """Write a resumable checkpoint atomically. ``modules``/``optimizers``: name -> state_dict."""
+    payload = {"format": TRAIN_FORMAT, "version": VERSION, "step": int(step),
+               "config": config, "modules": modules, "optimizers": optimizers,
+               "rng": rng_state(), "extra": extra or {}}
+    with atomic_path(path) as tmp:
+        torch.save(payload, tmp)
+
+
+def load_training_checkpoint(path: str | os.PathLike) -> dict:
+    data = _torch_load(path)
+    if not isinstance(data, dict) or data.get("format") != TRAIN_FORMAT:
+        raise CheckpointError(f"{path}: not a neuraltex training checkpoint")
+    _check_version(data.get("version"), path)
+    for key in ("step", "config", "modules", "optimizers", "rng"):
+        if key not in data:
+            raise CheckpointError(f"{path}: checkpoint lacks '{key}'")
+    return data
+
+
+# ------------------------------------------------------------------- inference exports
+def export_model(path: str | os.PathLike, state_dict: dict[str, torch.Tensor],
+                 model_config: dict, info: dict | None = None) -> None:
+    """Write inference weights as safetensors with a self-describing, hashed header."""
+    from safetensors.torch import save_file
+
+    tensors = {k: v.detach().cpu().contiguous() for k, v in state_dict.items()}
+    meta = {"format": EXPORT_FORMAT, "version": str(VERSION),
+            "model_config": json.dumps(model_config, sort_keys=True),
+            "info": json.dumps(info or {}, sort_keys=True),
+            "sha256": _tensor_digest(tensors)}
+    with atomic_path(path) as tmp:
+        save_file(tensors, str(tmp), metadata=meta)
+
+
+def load_exported_model(path: str | os.PathLike) -> tuple[dict[str, torch.Tensor], dict, dict]:
+    """Read an export; returns (state_dict, model_config, info). Verifies the content hash."""
+    from safetensors import SafetensorError, safe_open
+
+    path = Path(path)
+    if not path.is_file():
+        raise CheckpointError(f"{path}: no such model file")
+    try:
+        with safe_open(str(path), framework="pt") as fh:
+            meta = fh.metadata() or {}
+            tensors = {k: fh.get_tensor(k) for k in fh.keys()}
+    except (SafetensorError, OSError, ValueError, RuntimeError) as exc:
+        raise CheckpointError(f"{path}: not a readable safetensors model "
+                              f"({' '.join(str(exc).split())[:160]})") from None
+    if meta.get("format") != EXPORT_FORMAT:
+        raise CheckpointError(f"{path}: not a neuraltex model export")
+    _check_version(int(meta["version"]) if meta.get("version", "").isdigit() else None, path)
+    if meta.get("sha256") != _tensor_digest(tensors):
+        raise CheckpointError(f"{path}: weights do not match their recorded checksum "
+                              "(file modified or corrupted)")
+    try:
+        return tensors, json.loads(meta["model_config"]), json.loads(meta.get("info", "{}"))
+    except (KeyError, json.JSONDecodeError):
+        raise CheckpointError(f"{path}: model header is malformed") from None
+
+
+def _tensor_digest(tensors: dict[str, torch.Tensor]) -> str:
+    h = hashlib.sha256()
+    for name in sorted(tensors):
+        t = tensors[name].contiguous()
+        h.update(f"{name}|{t.dtype}|{tuple(t.shape)}|".encode())
+        h.update(t.view(torch.uint8).numpy().tobytes() if t.numel() else b"")
+    return h.hexdigest()
+
+
+def _torch_load(path: str | os.PathLike) -> Any:
+    path = Path(path)
+    if not path.is_file():
+        raise CheckpointError(f"{path}: no such checkpoint")
+    try:
+        return torch.load(path, map_location="cpu", weights_only=True)
+    except (pickle.UnpicklingError, RuntimeError, EOFError, OSError, ValueError) as exc:
+        raise CheckpointError(f"{path}: not a loadable checkpoint "
+                              f"({' '.join(str(exc).split())[:160]})") from None
+
+
+def _check_version(version: Any, path: str | os.PathLike) -> None:
+    if version != VERSION:
+        raise CheckpointError(f"{path}: unsupported checkpoint version {version!r} "
+                              f"(this neuraltex reads version {VERSION})")
