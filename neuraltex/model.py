@@ -1,0 +1,86 @@
+"""The Gaussian-texton autoencoder: image -> textons -> image (seed 003, 4.3.1-4.3.4).
+
+    encode:  E_FC(I) -> F_a, V;  E_s(I) -> S;  E_g(S, F_a, V) -> textons
+    decode:  h(textons, size) -> F_s, F_max;  G(F_s, F_max) -> image
+
+The networks are injected (Hydra instantiates them); this module only wires them and owns
+the estimation/splatting settings. Images are (B, 3, H, W) in [0, 1]. Textons are resolution
+independent, so ``decode`` renders any size.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import torch
+import torch.nn.functional as F
+from torch import Tensor, nn
+
+from neuraltex.estimation import Existence, estimate_textons
+from neuraltex.splatting import Splat, splat
+from neuraltex.textons import Textons
+
+
+class Encoded(NamedTuple):
+    textons: Textons
+    masks: Tensor       # (B, n, h, w) softmax over n, at the estimation resolution
+    appearance: Tensor  # (B, C, h, w)
+    direction: Tensor   # (B, 2, h, w)
+
+
+class TextonAutoencoder(nn.Module):
+    """E = (E_FC, E_s, E_g), h, G wired together.
+
+    ``encoder(image) -> (appearance, direction)``, ``segmenter(image) -> mask logits``
+    (B, n, h', w'), ``generator(features, max_opacity) -> image``.
+    ``estimation_size``: resolution at which masks and feature maps meet in E_g (None: the
+    input size); ``cutoff``: Mahalanobis cut-off of the splatting.
+    """
+
+    def __init__(self, encoder: nn.Module, segmenter: nn.Module, generator: nn.Module, *,
+                 estimation_size: int | None = None, eps: float = 1e-5,
+                 temperature: float = 1.0, cutoff: float | None = None) -> None:
+        super().__init__()
+        self.encoder, self.segmenter, self.generator = encoder, segmenter, generator
+        self.estimation_size = estimation_size
+        self.eps, self.temperature, self.cutoff = eps, temperature, cutoff
+
+    def encode(self, image: Tensor, existence: Existence = "round",
+               generator: torch.Generator | None = None) -> Encoded:
+        """Image (B, 3, H, W) in [0, 1] -> textons (+ the maps they came from)."""
+        x = image * 2 - 1
+        appearance, direction = self.encoder(x)
+        logits = self.segmenter(x)
+        size = self._estimation_hw(image)
+        masks = F.interpolate(logits, size=size, mode="bilinear", align_corners=False)
+        masks = masks.softmax(dim=1)
+        appearance = _resize(appearance, size)
+        direction = _resize(direction, size)
+        textons = estimate_textons(masks, appearance, direction, existence=existence,
+                                   temperature=self.temperature, eps=self.eps,
+                                   generator=generator)
+        return Encoded(textons, masks, appearance, direction)
+
+    def render(self, textons: Textons, size: tuple[int, int]) -> Splat:
+        return splat(textons, size, cutoff=self.cutoff)
+
+    def decode(self, textons: Textons, size: tuple[int, int]) -> Tensor:
+        """Textons -> image (B, 3, H, W) in [0, 1] at ``size`` = (H, W)."""
+        s = self.render(textons, size)
+        return self.generator(s.features, s.max_opacity)
+
+    def reconstruct(self, image: Tensor) -> Tensor:
+        return self.decode(self.encode(image).textons, tuple(image.shape[-2:]))
+
+    def _estimation_hw(self, image: Tensor) -> tuple[int, int]:
+        H, W = image.shape[-2:]
+        if self.estimation_size is None:
+            return (H, W)
+        s = self.estimation_size / min(H, W)
+        return (max(1, round(H * s)), max(1, round(W * s)))
+
+
+def _resize(x: Tensor, size: tuple[int, int]) -> Tensor:
+    if tuple(x.shape[-2:]) == tuple(size):
+        return x
+    return F.interpolate(x, size=size, mode="bilinear", align_corners=False)
