@@ -50,7 +50,8 @@ class TextonAutoencoder(nn.Module):
         """Image (B, 3, H, W) in [0, 1] -> textons (+ the maps they came from)."""
         x = image * 2 - 1
         appearance, direction = self.encoder(x)
-        logits = self.segmenter(x)
+        seg = self.segmenter(x)
+        logits = getattr(seg, "logits", seg)  # (B, n, h', w')
         size = self._estimation_hw(image)
         masks = F.interpolate(logits, size=size, mode="bilinear", align_corners=False)
         masks = masks.softmax(dim=1)
@@ -67,7 +68,7 @@ class TextonAutoencoder(nn.Module):
     def decode(self, textons: Textons, size: tuple[int, int]) -> Tensor:
         """Textons -> image (B, 3, H, W) in [0, 1] at ``size`` = (H, W)."""
         s = self.render(textons, size)
-        return self.generator(s.features, s.max_opacity)
+        return (self.generator(s.features, s.max_opacity) + 1) / 2  # G ends in tanh
 
     def reconstruct(self, image: Tensor) -> Tensor:
         return self.decode(self.encode(image).textons, tuple(image.shape[-2:]))
@@ -84,3 +85,39 @@ def _resize(x: Tensor, size: tuple[int, int]) -> Tensor:
     if tuple(x.shape[-2:]) == tuple(size):
         return x
     return F.interpolate(x, size=size, mode="bilinear", align_corners=False)
+
+
+def build_model(config: dict, with_critics: bool = False):
+    """The autoencoder described by a model config (the dict stored in checkpoints/exports:
+    preset, estimation_size, eps, temperature, cutoff). With ``with_critics`` also returns the
+    image and patch discriminators: (model, D, D_p)."""
+    from neuraltex.networks import NetworksConfig, build_networks
+
+    nets = build_networks(NetworksConfig.preset(config["preset"]))
+    model = TextonAutoencoder(nets.encoder, nets.segmentation, nets.generator,
+                              estimation_size=config.get("estimation_size"),
+                              eps=config.get("eps", 1e-5),
+                              temperature=config.get("temperature", 1.0),
+                              cutoff=config.get("cutoff"))
+    if not with_critics:
+        return model
+    pcfg = NetworksConfig.preset(config["preset"]).patch_discriminator
+    nets.patch_discriminator.crop_size = pcfg.crop_size
+    nets.patch_discriminator.num_crops = pcfg.num_crops
+    return model, nets.discriminator, nets.patch_discriminator
+
+
+def load_model(path, device: str | torch.device = "cpu") -> TextonAutoencoder:
+    """Load an inference export (``.safetensors``) for encode/decode; errors are one line."""
+    from neuraltex.checkpoint import CheckpointError, load_exported_model
+
+    state, config, info = load_exported_model(path)
+    try:
+        model = build_model(config)
+        model.load_state_dict(state)
+    except (KeyError, ValueError, RuntimeError, TypeError) as exc:
+        raise CheckpointError(f"{path}: weights do not fit the model they describe "
+                              f"({' '.join(str(exc).split())[:160]})") from None
+    model.info = info
+    model.config = config
+    return model.to(device).eval()

@@ -191,6 +191,7 @@ class _SplatFunction(torch.autograd.Function):
     """
 
     @staticmethod
+    @torch.amp.custom_fwd(device_type="cuda", cast_inputs=torch.float32)
     def forward(ctx, mu, prec, delta, feats, grid, cutoff, chunk):
         N, K, C = feats.shape
         P = grid.shape[1]
@@ -207,6 +208,7 @@ class _SplatFunction(torch.autograd.Function):
         return out, fmax
 
     @staticmethod
+    @torch.amp.custom_bwd(device_type="cuda")
     def backward(ctx, g_out, g_fmax):
         mu, prec, delta, feats, grid = ctx.saved_tensors
         cutoff, chunk = ctx.cutoff, ctx.chunk

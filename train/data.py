@@ -1,0 +1,61 @@
+"""Training data: a dataset from the config and a loader whose batch at step s is fixed by s,
+so a resumed run sees exactly the batches the uninterrupted run would have seen."""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+
+import torch
+from torch.utils.data import DataLoader, Dataset, Sampler
+
+
+def build_dataset(cfg, total_items: int) -> Dataset:
+    from neuraltex.data.augment import Augment
+
+    augment = Augment() if cfg.augment else None
+    if cfg.kind == "procedural":
+        from neuraltex.data.datasets import ProceduralTextures
+
+        families = list(cfg.families) if cfg.families else None
+        return ProceduralTextures(total_items, size=cfg.size, seed=cfg.seed, families=families,
+                                  augment=augment)
+    if cfg.kind == "folder":
+        from neuraltex.data.datasets import ImageFolderTextures
+
+        return ImageFolderTextures(cfg.root, size=cfg.size, augment=augment)
+    raise ValueError(f"unknown data.kind {cfg.kind!r}")
+
+
+class StepSampler(Sampler[int]):
+    """Indices of the batches for steps start, start+1, ... of one rank (wrapping around)."""
+
+    def __init__(self, length: int, batch: int, start_step: int, rank: int = 0,
+                 world: int = 1) -> None:
+        self.length, self.batch, self.start = length, batch, start_step
+        self.rank, self.world = rank, world
+
+    def __iter__(self) -> Iterator[int]:
+        step = self.start
+        while True:
+            base = (step * self.world + self.rank) * self.batch
+            for i in range(self.batch):
+                yield (base + i) % self.length
+            step += 1
+
+    def __len__(self) -> int:  # endless in practice; DataLoader only needs a number
+        return 2**62
+
+
+def batches(dataset: Dataset, batch: int, start_step: int, rank: int, world: int,
+            workers: int) -> Iterator[dict]:
+    sampler = StepSampler(len(dataset), batch, start_step, rank, world)
+    loader = DataLoader(dataset, batch_size=batch, sampler=sampler, num_workers=workers,
+                        collate_fn=_collate, persistent_workers=workers > 0)
+    return iter(loader)
+
+
+def _collate(items: list[dict]) -> dict:
+    out = {"image": torch.stack([it["image"] for it in items])}
+    if all("mask" in it for it in items):
+        out["mask"] = torch.stack([it["mask"] for it in items])
+    return out

@@ -1,0 +1,183 @@
+"""One training step's losses as two modules (so each can be wrapped in DDP):
+
+- :class:`GeneratorObjective` — E, h, G: eq. 4.24 (reconstruction, entropy, compactness,
+  reshuffled texture + patch GAN, equivariance consistency + transformed reconstruction, image
+  GAN, optional mask supervision);
+- :class:`CriticObjective` — D and D_p: non-saturating GAN losses with lazy R1.
+
+The critics are used by the generator objective but not registered in it (a plain tuple), so
+DDP over the generator objective never touches their parameters.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import NamedTuple
+
+import torch
+from torch import Tensor, nn
+
+from neuraltex.consistency import consistency_loss
+from neuraltex.losses import (
+    ReconstructionLoss,
+    compactness_loss,
+    d_logistic_loss,
+    d_r1_loss,
+    entropy_loss,
+    g_nonsaturating_loss,
+    sliced_wasserstein_patches,
+)
+from neuraltex.mask_supervision import mask_supervision_loss
+from neuraltex.model import TextonAutoencoder
+from neuraltex.reshuffle import soft_reshuffle
+from neuraltex.transforms import random_affine, warp_images
+
+
+@dataclass(frozen=True)
+class Options:
+    equivariance: bool = True
+    reshuffle: bool = True
+    gan: bool = True
+    mask_supervision: str = "none"  # none | gt | pseudo
+    reshuffle_gamma: float = 0.5
+    crop_size: int = 16
+    num_crops: int = 8
+
+
+class Outputs(NamedTuple):
+    loss: Tensor
+    logs: dict[str, float]
+    recon: Tensor            # (B, 3, H, W) in [0, 1]
+    reshuffled: Tensor | None
+    encoded: object          # neuraltex.model.Encoded
+
+
+def _crops(images: Tensor, size: int, n: int, g: torch.Generator) -> Tensor:
+    from neuraltex.discriminators import random_crops
+
+    return random_crops(images, size, n, generator=g)
+
+
+class GeneratorObjective(nn.Module):
+    def __init__(self, model: TextonAutoencoder, recon: ReconstructionLoss,
+                 critics: CriticObjective, options: Options) -> None:
+        super().__init__()
+        self.model, self.recon, self.options = model, recon, options
+        self._critics = (critics,)  # not a submodule: DDP over this module skips the critics
+
+    @property
+    def critics(self) -> CriticObjective:
+        return self._critics[0]
+
+    def forward(self, images: Tensor, labels: Tensor | None, w: dict[str, float],
+                existence: str, g: torch.Generator) -> Outputs:
+        opt, model = self.options, self.model
+        size = tuple(images.shape[-2:])
+        enc = model.encode(images, existence=existence, generator=g)
+        z = enc.textons
+        recon = model.decode(z, size)
+        logs: dict[str, Tensor] = {}
+        logs["recon"] = self.recon(recon, images)
+        logs["entropy"] = entropy_loss(enc.masks)
+        logs["compact"] = compactness_loss(enc.masks, z.mu)
+        total = logs["recon"] + w["entropy"] * logs["entropy"] + w["compact"] * logs["compact"]
+        if opt.gan:
+            logs["gan"] = g_nonsaturating_loss(self.critics.image(recon))
+            total = total + w["gan"] * logs["gan"]
+        reshuffled = None
+        if opt.reshuffle:
+            h = max(1, images.shape[0] // 2)  # N/2 reshuffled images (7.7.2)
+            area = enc.masks[:h].flatten(2).sum(-1)
+            zs = soft_reshuffle(z[:h], gamma=opt.reshuffle_gamma, area=area, generator=g)
+            reshuffled = model.decode(zs, size)
+            logs["texture"] = sliced_wasserstein_patches(reshuffled, images[:h],
+                                                         patch=int(w["patch_size"]), generator=g)
+            total = total + w["texture"] * logs["texture"]
+            if opt.gan:
+                ref = _crops(images[:h], opt.crop_size, opt.num_crops, g)
+                fake = _crops(reshuffled, opt.crop_size, opt.num_crops, g)
+                logs["pgan"] = g_nonsaturating_loss(self.critics.patch(ref, fake))
+                total = total + w["pgan"] * logs["pgan"]
+        if opt.equivariance:
+            csis, recon_t = self._equivariance(images, enc, existence, g)
+            logs["csis"], logs["recon_t"] = csis, recon_t
+            total = total + w["csis"] * csis + recon_t
+        if opt.mask_supervision != "none" and labels is not None:
+            logs["mask"] = mask_supervision_loss(enc.masks, labels)
+            total = total + w["mask"] * logs["mask"]
+        logs["total"] = total
+        out = {k: float(v.detach()) for k, v in logs.items()}
+        out.update(_diagnostics(images, recon.detach(), enc))
+        return Outputs(total, out, recon, reshuffled, enc)
+
+    def _equivariance(self, images: Tensor, enc, existence: str, g: torch.Generator):
+        """L_csis (eqs. 4.21-4.23) between T(E(I)) and E(T(I)), and L'_R on T(I)."""
+        model, z = self.model, enc.textons
+        T = random_affine(images.shape[0], z.canvas, generator=g)
+        T = type(T)(T.A.to(images), T.t.to(images))
+        warped, valid = warp_images(images, T)
+        z_t = z.affine(T.A.unsqueeze(1), T.t.unsqueeze(1))
+        enc_t = model.encode(warped, existence=existence, generator=g)
+        masks_t, valid_m = warp_images(enc.masks, T)
+        inside = ((z_t.mu >= 0) & (z_t.mu <= torch.tensor(z.canvas).to(z_t.mu))).all(-1)
+        csis = consistency_loss(z_t, enc_t.textons, masks_t * valid_m, enc_t.masks * valid_m,
+                                valid=inside)
+        recon_t = self.recon(model.decode(z_t, tuple(images.shape[-2:])), warped, mask=valid)
+        return csis, recon_t
+
+
+class CriticObjective(nn.Module):
+    """D (image) and D_p (patches, conditioned on a real crop) with their losses."""
+
+    def __init__(self, image: nn.Module, patch: nn.Module, options: Options,
+                 r1_every: int = 16, r1_gamma_d: float = 10.0, r1_gamma_dp: float = 0.1) -> None:
+        super().__init__()
+        self.image, self.patch, self.options = image, patch, options
+        self.r1_every, self.r1_gamma_d, self.r1_gamma_dp = r1_every, r1_gamma_d, r1_gamma_dp
+
+    def forward(self, images: Tensor, recon: Tensor, reshuffled: Tensor | None, step: int,
+                g: torch.Generator) -> tuple[Tensor, dict[str, float]]:
+        opt = self.options
+        logs = {"d": d_logistic_loss(self.image(images), self.image(recon.detach()))}
+        total = logs["d"]
+        real_ref = real = None
+        if reshuffled is not None:
+            h = reshuffled.shape[0]
+            real_ref = _crops(images[:h], opt.crop_size, opt.num_crops, g)
+            real = _crops(images[:h], opt.crop_size, opt.num_crops, g)
+            fake = _crops(reshuffled.detach(), opt.crop_size, opt.num_crops, g)
+            logs["dp"] = d_logistic_loss(self.patch(real_ref, real), self.patch(real_ref, fake))
+            total = total + logs["dp"]
+        if self.r1_every and step % self.r1_every == 0:
+            # Lazy R1 (StyleGAN2): every k steps, weighted by gamma / 2 * k.
+            x = images.detach().requires_grad_(True)
+            logs["r1"] = d_r1_loss(self.image(x), x)
+            total = total + self.r1_gamma_d / 2 * self.r1_every * logs["r1"]
+            if real is not None:
+                xr = real.detach().requires_grad_(True)
+                logs["r1_p"] = d_r1_loss(self.patch(real_ref, xr), xr)
+                total = total + self.r1_gamma_dp / 2 * self.r1_every * logs["r1_p"]
+        return total, {k: float(v.detach()) for k, v in logs.items()}
+
+
+@torch.no_grad()
+def _diagnostics(images: Tensor, recon: Tensor, enc) -> dict[str, float]:
+    """Numbers that expose the three degenerate phases of CPU training (issue 4): a fixed
+    partition (masks identical across images), collapse (1-2 queries take all pixels), a dead
+    start (no effective textons), and whether the decoder beats a constant image."""
+    labels = enc.masks.argmax(1).flatten(1)  # (B, P)
+    B = labels.shape[0]
+    if B > 1:
+        differ = (labels.unsqueeze(0) != labels.unsqueeze(1)).float().mean(-1)
+        diversity = float(differ.sum() / (B * (B - 1)))
+    else:
+        diversity = 0.0
+    used = [int(torch.unique(lab).numel()) for lab in labels]
+    const = (images - images.mean(dim=(0, 2, 3), keepdim=True)).abs().mean()
+    return {
+        "diag/mask_diversity": diversity,
+        "diag/queries_used": sum(used) / B,
+        "diag/effective": float(enc.textons.num_effective().float().mean()),
+        "diag/l1": float((recon - images).abs().mean()),
+        "diag/l1_constant": float(const),
+    }
