@@ -159,9 +159,9 @@ def _labels(labels, images, mode: str, device) -> torch.Tensor | None:
             raise RuntimeError("loss.mask_supervision=gt needs data with ground-truth masks")
         return labels.to(device)
     if mode == "pseudo":
-        from neuraltex.baselines import felzenszwalb_labels
+        from neuraltex.baselines import get_segmenter
 
-        return torch.stack([torch.from_numpy(felzenszwalb_labels(im.permute(1, 2, 0).cpu()
-                                                                 .numpy())) for im in images]
-                           ).to(device)
+        segment = get_segmenter("felzenszwalb")
+        return torch.stack([torch.from_numpy(segment(im.permute(1, 2, 0).cpu().numpy()))
+                            for im in images]).long().to(device)
     return None
