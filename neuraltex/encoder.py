@@ -9,7 +9,8 @@ UpBlock(512, 256) -> UpBlock(256, 382) for F_a and UpBlock(512, 256) -> UpBlock(
 so the native output stride is 4 (F_a is 32x32x382 for a 128x128 image). As in the paper the
 maps are then upsampled bilinearly to the input size; ``upsample_output=False`` returns the
 native stride-4 maps instead. Inputs whose sides are not multiples of 2**len(down_channels) are
-reflection-padded internally and the outputs cropped back.
+reflection-padded internally and the outputs cropped back. BatchNorm (Table 7.1) needs more
+than one value per channel in training mode, so train with batch * (H/16) * (W/16) > 1.
 
 One small deviation from Table 7.1: the last UpBlock of each branch is a plain convolution
 (no BatchNorm/LeakyReLU), so F_a and V are unconstrained signed maps; both are L2-normalised

@@ -15,7 +15,10 @@ query whose mask blocks every pixel of a level may attend everywhere on it.
 
 Resolution: any input size; sides are padded (reflection) to a multiple of :attr:`stride` = 32
 internally and outputs are cropped back. Logits are predicted at stride 4 and upsampled
-bilinearly to the input size.
+bilinearly to the input size. The ResNet-50 backbone keeps torchvision's BatchNorm, so in
+training mode it needs batch * (H/32) * (W/32) > 1; the small backbone uses GroupNorm.
+At 32x32 the stride-32 memory is a single token: its cross-attention softmax is then constant,
+so those layers' query/key projections get no gradient from that level (harmless).
 """
 
 from __future__ import annotations
@@ -75,19 +78,19 @@ class SegmentationOutput:
 
 
 def _gn(ch: int) -> nn.GroupNorm:
-    return nn.GroupNorm(math.gcd(32, ch), ch)
+    return nn.GroupNorm(math.gcd(32, max(ch // 4, 1)), ch)  # >= 4 channels per group
 
 
 class BasicDownBlock(nn.Module):
-    """Residual basic block that halves the resolution."""
+    """Residual basic block that halves the resolution (GroupNorm: works for 1x1 maps, batch 1)."""
 
     def __init__(self, cin: int, cout: int) -> None:
         super().__init__()
         self.main = nn.Sequential(
-            nn.Conv2d(cin, cout, 3, 2, 1, bias=False), nn.BatchNorm2d(cout), nn.ReLU(),
-            nn.Conv2d(cout, cout, 3, 1, 1, bias=False), nn.BatchNorm2d(cout),
+            nn.Conv2d(cin, cout, 3, 2, 1, bias=False), _gn(cout), nn.ReLU(),
+            nn.Conv2d(cout, cout, 3, 1, 1, bias=False), _gn(cout),
         )
-        self.skip = nn.Sequential(nn.Conv2d(cin, cout, 1, 2, bias=False), nn.BatchNorm2d(cout))
+        self.skip = nn.Sequential(nn.Conv2d(cin, cout, 1, 2, bias=False), _gn(cout))
 
     def forward(self, x: torch.Tensor) -> torch.Tensor:
         return F.relu(self.main(x) + self.skip(x))
@@ -102,7 +105,7 @@ class SmallBackbone(nn.Module):
             raise ValueError("SmallBackbone needs 4 stage widths")
         c0 = channels[0]
         self.stem = nn.Sequential(
-            nn.Conv2d(in_channels, c0, 3, 2, 1, bias=False), nn.BatchNorm2d(c0), nn.ReLU(),
+            nn.Conv2d(in_channels, c0, 3, 2, 1, bias=False), _gn(c0), nn.ReLU(),
             BasicDownBlock(c0, c0),
         )
         pairs = zip(channels[:-1], channels[1:], strict=True)
@@ -178,10 +181,12 @@ def sine_position_encoding(h: int, w: int, dim: int, device=None, dtype=None) ->
     npf = dim // 2
     y = (torch.arange(h, device=device, dtype=torch.float32) + 0.5) / h * 2 * math.pi
     x = (torch.arange(w, device=device, dtype=torch.float32) + 0.5) / w * 2 * math.pi
-    freq = 10000 ** (2 * (torch.arange(npf, device=device) // 2) / npf)  # (npf,)
+    k = torch.arange(npf, device=device)
+    freq = 10000 ** (2 * (k // 2) / npf)  # (npf,) DETR frequencies
+    even = (k % 2 == 0)  # sin on even channels, cos on odd ones
     py, px = y[:, None] / freq, x[:, None] / freq  # (h, npf), (w, npf)
-    py = torch.stack((py[:, 0::2].sin(), py[:, 1::2].cos()), dim=2).flatten(1)  # (h, npf)
-    px = torch.stack((px[:, 0::2].sin(), px[:, 1::2].cos()), dim=2).flatten(1)  # (w, npf)
+    py = torch.where(even, py.sin(), py.cos())  # (h, npf)
+    px = torch.where(even, px.sin(), px.cos())  # (w, npf)
     pos = torch.cat((py[:, None, :].expand(h, w, npf), px[None, :, :].expand(h, w, npf)), dim=2)
     pos = F.pad(pos, (0, dim - 2 * npf))  # odd dim: one zero channel
     return pos.permute(2, 0, 1).to(dtype or torch.float32)  # (dim, h, w)
