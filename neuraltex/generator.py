@@ -36,6 +36,7 @@ class GeneratorConfig:
     channels: tuple[int, ...] = (384, 192, 96)  # one SPADE block per entry, then one to RGB
     out_channels: int = 3
     spade_hidden: int = 128
+    spade_kernel: int = 3  # SPADE's "spade...3x3" kernel; 1 makes the modulation 9x cheaper
     norm: Literal["batch", "instance"] = "batch"
     use_spectral_norm: bool = True
     concat_features: bool = True
@@ -44,7 +45,7 @@ class GeneratorConfig:
     @classmethod
     def preset(cls, name: str) -> GeneratorConfig:
         presets = {
-            "tiny": cls(feature_channels=16, channels=(48, 32, 16), spade_hidden=32),
+            "tiny": cls(feature_channels=16, channels=(32, 16, 8), spade_hidden=16),
             "small": cls(feature_channels=64, channels=(128, 64, 32), spade_hidden=64),
             "paper": cls(),
         }
@@ -58,15 +59,17 @@ class SPADE(nn.Module):
     """
 
     def __init__(self, channels: int, cond_channels: int, hidden: int,
-                 norm: Literal["batch", "instance"] = "batch") -> None:
+                 norm: Literal["batch", "instance"] = "batch", kernel: int = 3) -> None:
         super().__init__()
         if norm == "batch":
             self.norm: nn.Module = nn.BatchNorm2d(channels, affine=False)
         else:
             self.norm = nn.InstanceNorm2d(channels, affine=False)
-        self.shared = nn.Sequential(nn.Conv2d(cond_channels, hidden, 3, padding=1), nn.ReLU())
-        self.gamma = nn.Conv2d(hidden, channels, 3, padding=1)
-        self.beta = nn.Conv2d(hidden, channels, 3, padding=1)
+        pad = kernel // 2
+        self.shared = nn.Sequential(nn.Conv2d(cond_channels, hidden, kernel, padding=pad),
+                                    nn.ReLU())
+        self.gamma = nn.Conv2d(hidden, channels, kernel, padding=pad)
+        self.beta = nn.Conv2d(hidden, channels, kernel, padding=pad)
 
     def forward(self, x: torch.Tensor, cond: torch.Tensor) -> torch.Tensor:
         actv = self.shared(resize(cond, tuple(x.shape[-2:])))  # (B, hidden, h, w)
@@ -77,18 +80,19 @@ class SPADEResBlock(nn.Module):
     """SPADE ResBlock: [SPADE, LReLU, conv] x 2 plus a (learned when cin != cout) shortcut."""
 
     def __init__(self, cin: int, cout: int, cond_channels: int, hidden: int,
-                 norm: Literal["batch", "instance"] = "batch", use_spectral_norm: bool = True):
+                 norm: Literal["batch", "instance"] = "batch", use_spectral_norm: bool = True,
+                 spade_kernel: int = 3) -> None:
         super().__init__()
         mid = min(cin, cout)
         sn = spectral_norm if use_spectral_norm else (lambda m: m)
         self.conv_0 = sn(nn.Conv2d(cin, mid, 3, padding=1))
         self.conv_1 = sn(nn.Conv2d(mid, cout, 3, padding=1))
-        self.norm_0 = SPADE(cin, cond_channels, hidden, norm)
-        self.norm_1 = SPADE(mid, cond_channels, hidden, norm)
+        self.norm_0 = SPADE(cin, cond_channels, hidden, norm, spade_kernel)
+        self.norm_1 = SPADE(mid, cond_channels, hidden, norm, spade_kernel)
         self.learned_shortcut = cin != cout
         if self.learned_shortcut:
             self.conv_s = sn(nn.Conv2d(cin, cout, 1, bias=False))
-            self.norm_s = SPADE(cin, cond_channels, hidden, norm)
+            self.norm_s = SPADE(cin, cond_channels, hidden, norm, spade_kernel)
 
     def forward(self, x: torch.Tensor, cond: torch.Tensor) -> torch.Tensor:
         xs = self.conv_s(self.norm_s(x, cond)) if self.learned_shortcut else x
@@ -119,6 +123,7 @@ class SPADEGenerator(nn.Module):
         channels: tuple[int, ...] = (384, 192, 96),
         out_channels: int = 3,
         spade_hidden: int = 128,
+        spade_kernel: int = 3,
         norm: Literal["batch", "instance"] = "batch",
         use_spectral_norm: bool = True,
         concat_features: bool = True,
@@ -130,7 +135,8 @@ class SPADEGenerator(nn.Module):
         self.fc = nn.Conv2d(in_ch, channels[0], 3, padding=1)  # SPADE's input conv (its `fc`)
         chans = (channels[0], *channels, out_channels)
         self.blocks = nn.ModuleList(
-            SPADEResBlock(a, b, feature_channels, spade_hidden, norm, use_spectral_norm)
+            SPADEResBlock(a, b, feature_channels, spade_hidden, norm, use_spectral_norm,
+                          spade_kernel)
             for a, b in zip(chans[:-1], chans[1:], strict=True)
         )
         self.n_levels = len(channels)
@@ -140,7 +146,8 @@ class SPADEGenerator(nn.Module):
     @classmethod
     def from_config(cls, cfg: GeneratorConfig) -> SPADEGenerator:
         return cls(cfg.feature_channels, cfg.channels, cfg.out_channels, cfg.spade_hidden,
-                   cfg.norm, cfg.use_spectral_norm, cfg.concat_features, cfg.output_activation)
+                   cfg.spade_kernel, cfg.norm, cfg.use_spectral_norm, cfg.concat_features,
+                   cfg.output_activation)
 
     def forward(self, features: torch.Tensor, max_opacity: torch.Tensor) -> torch.Tensor:
         fs, fm = tuple(features.shape), tuple(max_opacity.shape)

@@ -177,6 +177,15 @@ def test_generator_resolution_independent(tiny):
     assert level_sizes((17, 23), 3) == [(5, 6), (9, 12), (17, 23)]
 
 
+@pytest.mark.parametrize("kw", [{"spade_kernel": 1}, {"norm": "instance"},
+                                {"use_spectral_norm": False, "output_activation": "sigmoid"}])
+def test_generator_options(kw):
+    gen = SPADEGenerator(feature_channels=6, channels=(8, 8, 8), spade_hidden=8, **kw)
+    img = gen(torch.rand(2, 6, 24, 20), torch.rand(2, 1, 24, 20))
+    assert img.shape == (2, 3, 24, 20)
+    assert img.min() >= (0 if kw.get("output_activation") == "sigmoid" else -1)
+
+
 def test_generator_uses_max_opacity_input():
     gen = SPADEGenerator(feature_channels=6, channels=(8, 8, 8), spade_hidden=8,
                          concat_features=False).eval()
