@@ -123,11 +123,13 @@ class FCEncoder(nn.Module):
     def forward(self, image: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
         h, w = image.shape[-2:]
         x = pad_to_multiple(image, self.pad_multiple)  # (B, C_in, H', W')
+        x_pad_hw = x.shape[-2:]
         x = self.down(x)  # (B, C_down, H'/16, W'/16)
         f_a = self.appearance(x)  # (B, C_a, H'/s, W'/s)
         v = self.direction(x)  # (B, 2, H'/s, W'/s)
+        if self.upsample_output:  # upsample the padded map, then crop: pixel-exact alignment
+            f_a = resize(f_a, tuple(x_pad_hw))[..., :h, :w]  # (B, C_a, H, W)
+            v = resize(v, tuple(x_pad_hw))[..., :h, :w]  # (B, 2, H, W)
+            return f_a, v
         hs, ws = -(-h // self.stride), -(-w // self.stride)
-        f_a, v = f_a[..., :hs, :ws], v[..., :hs, :ws]  # drop the padded border
-        if self.upsample_output:
-            f_a, v = resize(f_a, (h, w)), resize(v, (h, w))  # (B, C_a, H, W), (B, 2, H, W)
-        return f_a, v
+        return f_a[..., :hs, :ws], v[..., :hs, :ws]  # (B, C, ceil(H/s), ceil(W/s))

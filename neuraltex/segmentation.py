@@ -69,7 +69,9 @@ class SegmentationConfig:
 class SegmentationOutput:
     logits: torch.Tensor  # (B, n, H, W) mask logits at input resolution
     masks: torch.Tensor  # (B, n, H, W) S = softmax over the n queries
-    aux_logits: list[torch.Tensor] = field(default_factory=list)  # per layer, (B, n, H/4, W/4)
+    # predictions from the initial queries and after each layer (num_layers + 1, the last is the
+    # final one) at stride 4 of the padded input, (B, n, H'/4, W'/4), for deep supervision
+    aux_logits: list[torch.Tensor] = field(default_factory=list)
     attn_masks: list[torch.Tensor] = field(default_factory=list)  # per layer, (B, n, L) blocked
     attn_weights: list[torch.Tensor] = field(default_factory=list)  # per layer, (B, heads, n, L)
 
@@ -350,7 +352,7 @@ class SegmentationNet(nn.Module):
         tgt = self.query_feat[None].expand(b, -1, -1)  # (B, n, D)
         qpos = self.query_pos[None].expand(b, -1, -1)
         logits = self.mask_head(tgt, mask_features)  # (B, n, H'/4, W'/4)
-        out = SegmentationOutput(logits=logits, masks=logits)
+        out = SegmentationOutput(logits=logits, masks=logits, aux_logits=[logits])
         for i, layer in enumerate(self.layers):
             lvl = i % len(mems)
             blocked = self.blocked_from_logits(logits, sizes[lvl])  # (B, n, L)
@@ -360,7 +362,6 @@ class SegmentationNet(nn.Module):
             if return_attention:
                 out.attn_masks.append(blocked)
                 out.attn_weights.append(weights)
-        hs, ws = -(-h // 4), -(-w // 4)
-        out.logits = resize(logits[..., :hs, :ws], (h, w))  # (B, n, H, W)
+        out.logits = resize(logits, tuple(x.shape[-2:]))[..., :h, :w]  # (B, n, H, W)
         out.masks = out.logits.softmax(dim=1)  # S: sums to 1 over queries at every pixel
         return out

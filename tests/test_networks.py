@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import pytest
 import torch
+import torchvision
 
 from neuraltex.discriminators import (
     DiscriminatorConfig,
@@ -82,7 +83,7 @@ def test_segmentation_shapes_and_softmax(tiny, b, hw):
     out = seg(torch.rand(b, 3, *hw))
     n = tiny.segmentation.num_queries
     assert out.logits.shape == out.masks.shape == (b, n, *hw)
-    assert len(out.aux_logits) == tiny.segmentation.num_layers
+    assert len(out.aux_logits) == tiny.segmentation.num_layers + 1
     assert torch.allclose(out.masks.sum(dim=1), torch.ones(b, *hw), atol=1e-5)
     assert (out.masks >= 0).all()
 
@@ -156,13 +157,12 @@ def test_decoder_attention_is_masked_by_previous_prediction(tiny, mode):
     out = seg(torch.rand(2, 3, 64, 64), return_attention=True)
     assert len(out.attn_masks) == len(out.attn_weights) == cfg.num_layers
     for blocked, w, prev in zip(out.attn_masks, out.attn_weights,
-                                [None, *out.aux_logits[:-1]], strict=True):
+                                out.aux_logits[:-1], strict=True):
         assert w.shape[-1] == blocked.shape[-1]
         assert (w.permute(1, 0, 2, 3)[:, blocked] == 0).all()  # zero weight where blocked
-        if prev is not None:  # the mask comes from the previous layer's prediction
-            side = round(blocked.shape[-1] ** 0.5)  # square input: square memory levels
-            hw = (side, side)
-            assert torch.equal(blocked, seg.blocked_from_logits(prev, hw))
+        side = round(blocked.shape[-1] ** 0.5)  # square input: square memory levels
+        # the mask comes from the previous layer's prediction (the initial queries' for layer 0)
+        assert torch.equal(blocked, seg.blocked_from_logits(prev, (side, side)))
     assert any(b.any() for b in out.attn_masks), "masks never block anything"
 
 
@@ -262,6 +262,15 @@ def test_presets_are_consistent_and_tiny_is_small():
                        generator=GeneratorConfig(feature_channels=10))
     with pytest.raises(ValueError):
         NetworksConfig.preset("huge")
+
+
+def test_resnet50_backbone_loads_local_weights_only(tmp_path):
+    ref = torchvision.models.resnet50(weights=None)
+    path = tmp_path / "r50.pt"
+    torch.save(ref.state_dict(), path)
+    bb = ResNet50Backbone(weights_path=str(path))
+    assert torch.equal(bb.stages[3][0].conv1.weight, ref.layer4[0].conv1.weight)
+    assert bb.out_channels == (256, 512, 1024, 2048)
 
 
 def test_paper_preset_key_sizes_without_forward():
