@@ -231,6 +231,31 @@ def test_gradients_reach_every_parameter(tiny):
         _assert_all_grads(module)
 
 
+def _stand_in_splat(masks, f_a, v):
+    """Stand-in for estimation + splatting when textons do not overlap: pool per mask
+    (eqs. 4.6-4.7), paint back with the masks, F_max = max_i S_i. Only for shape/grad tests."""
+    w = masks / masks.sum(dim=(2, 3), keepdim=True).clamp_min(1e-6)  # (B, n, H, W)
+    feats = torch.cat((f_a, v), dim=1)  # (B, C_a+2, H, W)
+    per_texton = torch.einsum("bnhw,bchw->bnc", w, feats)  # (B, n, C_a+2)
+    per_texton = torch.nn.functional.normalize(per_texton, dim=-1)
+    f_s = torch.einsum("bnhw,bnc->bchw", masks, per_texton)  # (B, C_a+2, H, W)
+    return f_s, masks.amax(dim=1, keepdim=True)  # F_s, F_max (B, 1, H, W)
+
+
+def test_shapes_connect_and_gradients_reach_encoders_through_generator(tiny):
+    nets = build_networks(tiny)
+    x = torch.rand(2, 3, 48, 48)
+    f_a, v = nets.encoder(x)
+    masks = nets.segmentation(x).masks
+    f_s, f_max = _stand_in_splat(masks, f_a, v)
+    img = nets.generator(f_s, f_max)
+    assert img.shape == x.shape
+    (img - x).abs().mean().backward()
+    for module in (nets.encoder, nets.segmentation, nets.generator):
+        assert all(p.grad is not None for p in module.parameters())
+        assert sum(p.grad.abs().sum() for p in module.parameters()) > 0
+
+
 def test_constant_image_no_nan(tiny):
     nets = build_networks(tiny)
     for value in (0.0, 0.5, 1.0):
