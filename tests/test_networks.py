@@ -6,6 +6,7 @@ import pytest
 import torch
 import torchvision
 
+from neuraltex.backbones import ResNet50Backbone
 from neuraltex.discriminators import (
     DiscriminatorConfig,
     ImageDiscriminator,
@@ -18,7 +19,6 @@ from neuraltex.generator import GeneratorConfig, SPADEGenerator, level_sizes
 from neuraltex.networks import NetworksConfig, build_networks
 from neuraltex.nn_utils import count_parameters, pad_to_multiple
 from neuraltex.segmentation import (
-    ResNet50Backbone,
     SegmentationConfig,
     SegmentationNet,
     masked_attention,
