@@ -113,8 +113,9 @@ def level_sizes(size: tuple[int, int], n_levels: int) -> list[tuple[int, int]]:
 class SPADEGenerator(nn.Module):
     """G: (F_s (B, C_a+2, H, W), F_max (B, 1, H, W)) -> image (B, 3, H, W) in [-1, 1] (tanh).
 
-    Block i runs at 1/2**(len(channels)-1-i) of the output size; the last two blocks run at
-    full size, as in the paper (H/4, H/2, H, H).
+    One SPADE res-block per entry of ``channels`` plus one to ``out_channels``; block i < k runs
+    at 1/2**(k-1-i) of the output size (k = len(channels)) and the last one at full size:
+    H/4, H/2, H, H for the paper.
     """
 
     def __init__(
