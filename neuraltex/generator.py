@@ -15,6 +15,8 @@ Paper sizes (7.7.1): blocks give H/4 x 384, H/2 x 192, H x 96 and H x 3, i.e. ``
 (384, 192, 96)`` and a last SPADE block to ``out_channels = 3``. The output goes through tanh,
 so it is in [-1, 1] (``output_activation="sigmoid"`` gives [0, 1]). Any output size works: the
 level sizes are ceil-halvings of the output size, and upsampling goes to the next exact size.
+The parameter-free BatchNorm (SPADE's default) needs batch * (H/4) * (W/4) > 1 in training
+mode; ``norm="instance"`` needs (H/4) * (W/4) > 1.
 """
 
 from __future__ import annotations

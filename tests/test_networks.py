@@ -150,6 +150,13 @@ def test_masked_attention_function_zeroes_blocked():
     assert torch.allclose(out[:, :, :1], ref, atol=1e-6)
 
 
+def test_masked_attention_gradcheck_float64():
+    q, k, v = (torch.randn(1, 2, 3, 4, dtype=torch.float64, requires_grad=True) for _ in range(3))
+    blocked = torch.tensor([[[False, True, False], [False, False, False], [True, True, False]]])
+    assert torch.autograd.gradcheck(lambda a, b, c: masked_attention(a, b, c, blocked)[0],
+                                    (q, k, v))
+
+
 @pytest.mark.parametrize("mode", ["softmax", "sigmoid"])
 def test_decoder_attention_is_masked_by_previous_prediction(tiny, mode):
     cfg = SegmentationConfig(**{**tiny.segmentation.__dict__, "attn_mask_mode": mode})
@@ -254,6 +261,50 @@ def test_shapes_connect_and_gradients_reach_encoders_through_generator(tiny):
     for module in (nets.encoder, nets.segmentation, nets.generator):
         assert all(p.grad is not None for p in module.parameters())
         assert sum(p.grad.abs().sum() for p in module.parameters()) > 0
+
+
+@pytest.mark.parametrize("which", ["image", "patch"])
+def test_discriminators_support_r1_double_backward(tiny, which):
+    """Lazy R1 (7.7.2) differentiates the input gradient's norm w.r.t. the weights."""
+    if which == "image":
+        d = ImageDiscriminator.from_config(tiny.discriminator)
+        x = torch.rand(2, 3, 32, 32, requires_grad=True)
+        score = d(x)
+    else:
+        d = PatchDiscriminator.from_config(tiny.patch_discriminator)
+        ref = torch.rand(8, 3, 16, 16)
+        x = torch.rand(8, 3, 16, 16, requires_grad=True)
+        score = d(ref, x)
+    (grad,) = torch.autograd.grad(score.sum(), x, create_graph=True)
+    grad.pow(2).flatten(1).sum(1).mean().backward()
+    # the input gradient does not depend on biases (leaky ReLU is piecewise linear): weights only
+    weights = [p for p in d.parameters() if p.dim() > 1]
+    assert all(p.grad is not None and p.grad.any() and torch.isfinite(p.grad).all()
+               for p in weights)
+
+
+def test_bad_arguments_raise():
+    with pytest.raises(ValueError):
+        SegmentationNet(backbone="small", backbone_channels=(8, 16), num_queries=4)
+    with pytest.raises(ValueError):
+        SegmentationNet(backbone="small", hidden_dim=30, num_heads=4, num_queries=4)
+    with pytest.raises(ValueError):
+        FCEncoder(down_channels=(8,), up_channels=(8,))
+    with pytest.raises(ValueError):
+        PatchDiscriminator()(torch.rand(1, 3, 16, 16), torch.rand(1, 3, 32, 32))
+
+
+def test_eval_mode_batch_one_any_size(tiny):
+    nets = build_networks(tiny).eval()
+    x = torch.rand(1, 3, 45, 29)
+    with torch.no_grad():
+        f_a, v = nets.encoder(x)
+        out = nets.segmentation(x)
+        img = nets.generator(torch.rand(1, tiny.generator.feature_channels, 45, 29),
+                             torch.rand(1, 1, 45, 29))
+        score = nets.discriminator(x)
+    assert f_a.shape[-2:] == v.shape[-2:] == out.masks.shape[-2:] == img.shape[-2:] == (45, 29)
+    assert score.shape == (1, 1)
 
 
 def test_constant_image_no_nan(tiny):
