@@ -116,9 +116,11 @@ class ConvLayer(nn.Module):
         self.act_bias = nn.Parameter(torch.zeros(cout)) if activate and bias else None
 
     def forward(self, x: torch.Tensor, down: bool = True) -> torch.Tensor:
-        if self.blur is not None and down:
-            x = self.conv(self.blur(x))
-        else:  # same weights at stride 1 (only when the input is already small)
+        if self.blur is None:
+            x = self.conv(x)
+        elif down:
+            x = self.conv(self.blur(x))  # (B, cout, H/2, W/2)
+        else:  # a downsampling layer on an input already at 4x4: same weights, stride 1
             x = F.conv2d(x, self.conv.weight * self.conv.scale, self.conv.bias, 1,
                          self.conv.weight.shape[-1] // 2)
         if self.act_bias is not None:
