@@ -1,0 +1,299 @@
+"""E_s: a small query-based segmentation head, Mask2Former style (seed 003, 4.3.2.2, 7.7.1).
+
+image -> backbone (strides 4, 8, 16, 32) -> FPN pixel decoder -> per-pixel mask embeddings at
+stride 4 plus three memory levels (strides 32, 16, 8) -> transformer decoder with n learned
+queries (masked cross-attention, self-attention, FFN; levels visited round-robin) -> mask logits
+= query embedding . per-pixel embedding -> upsampled to the input size -> softmax over the n
+queries per pixel (S in the paper).
+
+Differences from Mask2Former, on purpose: an FPN instead of the multi-scale deformable-attention
+pixel decoder; no class head (textons are the only class; existence comes from eq. 4.5);
+``attn_mask_mode="softmax"`` (default for tiny/small) blocks pixel p for query q when
+S_q(p) < 1/n, which is shift-invariant like the softmax the rest of the model sees, while
+``"sigmoid"`` (paper preset) is Mask2Former's rule sigmoid(logit) < 0.5. As in Mask2Former a
+query whose mask blocks every pixel of a level may attend everywhere on it.
+
+Resolution: any input size; sides are padded (reflection) to a multiple of :attr:`stride` = 32
+internally and outputs are cropped back. Logits are predicted at stride 4 and upsampled
+bilinearly to the input size. The ResNet-50 backbone keeps torchvision's BatchNorm, so in
+training mode it needs batch * (H/32) * (W/32) > 1; the small backbone uses GroupNorm.
+At 32x32 the stride-32 memory is a single token: its cross-attention softmax is then constant,
+so those layers' query/key projections get no gradient from that level (harmless).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Literal
+
+import torch
+import torch.nn.functional as F
+from torch import nn
+
+from neuraltex.backbones import ResNet50Backbone, SmallBackbone, group_norm
+from neuraltex.nn_utils import pad_to_multiple, resize
+
+
+@dataclass
+class SegmentationConfig:
+    in_channels: int = 3
+    num_queries: int = 100
+    backbone: Literal["small", "resnet50"] = "resnet50"
+    backbone_channels: tuple[int, ...] = (32, 64, 128, 256)  # only for backbone="small"
+    backbone_weights: str | None = None  # local ResNet-50 state_dict file; never downloaded
+    conv_dim: int = 256
+    mask_dim: int = 256
+    hidden_dim: int = 256
+    num_heads: int = 8
+    ffn_dim: int = 2048
+    num_layers: int = 4
+    attn_mask_mode: Literal["sigmoid", "softmax"] = "sigmoid"
+    mask_pos_scale: float = 0.0  # weak positional encoding added to the mask features
+
+    @classmethod
+    def preset(cls, name: str) -> SegmentationConfig:
+        presets = {
+            "tiny": cls(num_queries=16, backbone="small", backbone_channels=(16, 24, 32, 48),
+                        conv_dim=32, mask_dim=32, hidden_dim=32, num_heads=4, ffn_dim=64,
+                        attn_mask_mode="softmax", mask_pos_scale=0.1),
+            "small": cls(num_queries=32, backbone="small", backbone_channels=(32, 64, 128, 256),
+                         conv_dim=64, mask_dim=64, hidden_dim=64, num_heads=4, ffn_dim=256,
+                         attn_mask_mode="softmax", mask_pos_scale=0.1),
+            "paper": cls(),
+        }
+        return presets[name]
+
+
+@dataclass
+class SegmentationOutput:
+    logits: torch.Tensor  # (B, n, H, W) mask logits at input resolution
+    masks: torch.Tensor  # (B, n, H, W) S = softmax over the n queries
+    # predictions from the initial queries and after each layer (num_layers + 1, the last is the
+    # final one) at stride 4 of the padded input, (B, n, H'/4, W'/4), for deep supervision
+    aux_logits: list[torch.Tensor] = field(default_factory=list)
+    attn_masks: list[torch.Tensor] = field(default_factory=list)  # per layer, (B, n, L) blocked
+    attn_weights: list[torch.Tensor] = field(default_factory=list)  # per layer, (B, heads, n, L)
+
+
+# ----------------------------------------------------------------------------- pixel decoder
+
+
+class FPNPixelDecoder(nn.Module):
+    """Top-down FPN. Returns mask features (stride 4) and memories at strides 32, 16, 8."""
+
+    def __init__(self, in_channels: tuple[int, ...], conv_dim: int, mask_dim: int) -> None:
+        super().__init__()
+        self.lateral = nn.ModuleList(
+            nn.Sequential(nn.Conv2d(c, conv_dim, 1, bias=False), group_norm(conv_dim))
+            for c in in_channels
+        )
+        self.output = nn.ModuleList(
+            nn.Sequential(nn.Conv2d(conv_dim, conv_dim, 3, 1, 1, bias=False), group_norm(conv_dim),
+                          nn.ReLU())
+            for _ in in_channels
+        )
+        self.mask_proj = nn.Conv2d(conv_dim, mask_dim, 3, 1, 1)
+
+    def forward(self, feats: list[torch.Tensor]) -> tuple[torch.Tensor, list[torch.Tensor]]:
+        outs: list[torch.Tensor] = []
+        y = None
+        for i in reversed(range(len(feats))):  # stride 32 -> 4
+            lat = self.lateral[i](feats[i])  # (B, conv_dim, h_i, w_i)
+            y = lat if y is None else lat + F.interpolate(y, size=lat.shape[-2:], mode="nearest")
+            y = self.output[i](y)
+            outs.append(y)
+        mask_features = self.mask_proj(outs[-1])  # (B, mask_dim, H/4, W/4)
+        return mask_features, outs[:3]  # memories at strides 32, 16, 8
+
+
+def sine_position_encoding(h: int, w: int, dim: int, device=None, dtype=None) -> torch.Tensor:
+    """DETR-style normalised sine/cosine encoding of pixel centres. Shape: (dim, h, w).
+
+    Coordinates are normalised to [0, 2*pi] so the encoding is resolution-independent.
+    """
+    npf = dim // 2
+    y = (torch.arange(h, device=device, dtype=torch.float32) + 0.5) / h * 2 * math.pi
+    x = (torch.arange(w, device=device, dtype=torch.float32) + 0.5) / w * 2 * math.pi
+    k = torch.arange(npf, device=device)
+    freq = 10000 ** (2 * (k // 2) / npf)  # (npf,) DETR frequencies
+    even = (k % 2 == 0)  # sin on even channels, cos on odd ones
+    py, px = y[:, None] / freq, x[:, None] / freq  # (h, npf), (w, npf)
+    py = torch.where(even, py.sin(), py.cos())  # (h, npf)
+    px = torch.where(even, px.sin(), px.cos())  # (w, npf)
+    pos = torch.cat((py[:, None, :].expand(h, w, npf), px[None, :, :].expand(h, w, npf)), dim=2)
+    pos = F.pad(pos, (0, dim - 2 * npf))  # odd dim: one zero channel
+    return pos.permute(2, 0, 1).to(dtype or torch.float32)  # (dim, h, w)
+
+
+# ----------------------------------------------------------------------------- transformer
+
+
+def masked_attention(
+    q: torch.Tensor, k: torch.Tensor, v: torch.Tensor, blocked: torch.Tensor | None = None
+) -> tuple[torch.Tensor, torch.Tensor]:
+    """Scaled dot-product attention with a boolean mask (True = may not attend).
+
+    Shape: q (B, h, n, d), k/v (B, h, L, d), blocked (B, n, L) or (B, h, n, L)
+    -> out (B, h, n, d), weights (B, h, n, L). Blocked entries get exactly zero weight.
+    """
+    scores = q @ k.transpose(-2, -1) / math.sqrt(q.shape[-1])  # (B, h, n, L)
+    if blocked is not None:
+        if blocked.dim() == 3:
+            blocked = blocked[:, None]  # (B, 1, n, L)
+        scores = scores.masked_fill(blocked, float("-inf"))
+    weights = scores.softmax(dim=-1)
+    return weights @ v, weights
+
+
+class Attention(nn.Module):
+    """Multi-head attention with separate q/k/v projections and an optional boolean mask."""
+
+    def __init__(self, dim: int, num_heads: int) -> None:
+        super().__init__()
+        if dim % num_heads:
+            raise ValueError("dim must be divisible by num_heads")
+        self.h = num_heads
+        self.q, self.k, self.v, self.out = (nn.Linear(dim, dim) for _ in range(4))
+
+    def forward(self, query, key, value, blocked=None) -> tuple[torch.Tensor, torch.Tensor]:
+        b, n, d = query.shape
+        split = lambda t: t.view(b, t.shape[1], self.h, d // self.h).transpose(1, 2)  # noqa: E731
+        q, k, v = split(self.q(query)), split(self.k(key)), split(self.v(value))  # (B, h, *, d/h)
+        out, w = masked_attention(q, k, v, blocked)  # (B, h, n, d/h)
+        return self.out(out.transpose(1, 2).reshape(b, n, d)), w  # (B, n, d)
+
+
+class DecoderLayer(nn.Module):
+    """Mask2Former decoder layer (post-norm): masked cross-attn -> self-attn -> FFN."""
+
+    def __init__(self, dim: int, num_heads: int, ffn_dim: int) -> None:
+        super().__init__()
+        self.cross, self.self_attn = Attention(dim, num_heads), Attention(dim, num_heads)
+        self.ffn = nn.Sequential(nn.Linear(dim, ffn_dim), nn.ReLU(), nn.Linear(ffn_dim, dim))
+        self.norm1, self.norm2, self.norm3 = (nn.LayerNorm(dim) for _ in range(3))
+
+    def forward(self, tgt, query_pos, memory, memory_pos, blocked):
+        out, w = self.cross(tgt + query_pos, memory + memory_pos, memory, blocked)
+        tgt = self.norm1(tgt + out)  # (B, n, D)
+        q = tgt + query_pos
+        tgt = self.norm2(tgt + self.self_attn(q, q, tgt)[0])
+        tgt = self.norm3(tgt + self.ffn(tgt))
+        return tgt, w
+
+
+class MaskHead(nn.Module):
+    """Queries (B, n, D) + mask features (B, C, h, w) -> mask logits (B, n, h, w)."""
+
+    def __init__(self, hidden_dim: int, mask_dim: int) -> None:
+        super().__init__()
+        self.norm = nn.LayerNorm(hidden_dim)
+        self.embed = nn.Sequential(
+            nn.Linear(hidden_dim, hidden_dim), nn.ReLU(),
+            nn.Linear(hidden_dim, hidden_dim), nn.ReLU(),
+            nn.Linear(hidden_dim, mask_dim),
+        )
+
+    def forward(self, queries: torch.Tensor, mask_features: torch.Tensor) -> torch.Tensor:
+        emb = self.embed(self.norm(queries))  # (B, n, C)
+        return torch.einsum("bnc,bchw->bnhw", emb, mask_features)  # (B, n, h, w)
+
+
+# ----------------------------------------------------------------------------- the head
+
+
+class SegmentationNet(nn.Module):
+    """E_s: image (B, C_in, H, W) -> :class:`SegmentationOutput` with logits/masks (B, n, H, W)."""
+
+    stride = 32  # inputs are padded to a multiple of this internally
+
+    def __init__(
+        self,
+        in_channels: int = 3,
+        num_queries: int = 100,
+        backbone: Literal["small", "resnet50"] = "resnet50",
+        backbone_channels: tuple[int, ...] = (32, 64, 128, 256),
+        backbone_weights: str | None = None,
+        conv_dim: int = 256,
+        mask_dim: int = 256,
+        hidden_dim: int = 256,
+        num_heads: int = 8,
+        ffn_dim: int = 2048,
+        num_layers: int = 4,
+        attn_mask_mode: Literal["sigmoid", "softmax"] = "sigmoid",
+        mask_pos_scale: float = 0.0,
+    ) -> None:
+        super().__init__()
+        if backbone == "resnet50":
+            self.backbone: nn.Module = ResNet50Backbone(in_channels, backbone_weights)
+        else:
+            self.backbone = SmallBackbone(in_channels, backbone_channels)
+        self.pixel_decoder = FPNPixelDecoder(self.backbone.out_channels, conv_dim, mask_dim)
+        self.input_proj = nn.ModuleList(
+            nn.Identity() if conv_dim == hidden_dim else nn.Conv2d(conv_dim, hidden_dim, 1)
+            for _ in range(3)
+        )
+        self.level_embed = nn.Parameter(torch.zeros(3, hidden_dim))
+        self.query_feat = nn.Parameter(torch.randn(num_queries, hidden_dim) * 0.02)
+        self.query_pos = nn.Parameter(torch.randn(num_queries, hidden_dim) * 0.02)
+        self.layers = nn.ModuleList(
+            DecoderLayer(hidden_dim, num_heads, ffn_dim) for _ in range(num_layers)
+        )
+        self.mask_head = MaskHead(hidden_dim, mask_dim)
+        self.num_queries, self.hidden_dim = num_queries, hidden_dim
+        self.attn_mask_mode, self.mask_pos_scale = attn_mask_mode, mask_pos_scale
+
+    @classmethod
+    def from_config(cls, cfg: SegmentationConfig) -> SegmentationNet:
+        return cls(cfg.in_channels, cfg.num_queries, cfg.backbone, cfg.backbone_channels,
+                   cfg.backbone_weights, cfg.conv_dim, cfg.mask_dim, cfg.hidden_dim,
+                   cfg.num_heads, cfg.ffn_dim, cfg.num_layers, cfg.attn_mask_mode,
+                   cfg.mask_pos_scale)
+
+    def blocked_from_logits(self, logits: torch.Tensor, size: tuple[int, int]) -> torch.Tensor:
+        """Attention mask for the next layer from mask logits (B, n, h, w) -> (B, n, L) bool."""
+        logits = F.interpolate(logits, size=size, mode="bilinear", align_corners=False)
+        if self.attn_mask_mode == "sigmoid":
+            blocked = logits.sigmoid() < 0.5
+        else:
+            blocked = logits.softmax(dim=1) < 1.0 / logits.shape[1]
+        blocked = blocked.flatten(2).detach()  # (B, n, L); no gradient through the mask
+        full = blocked.all(dim=-1, keepdim=True)  # a query blocked everywhere sees everything
+        return blocked & ~full
+
+    def _memories(self, levels: list[torch.Tensor]):
+        mems, poss, sizes = [], [], []
+        for i, x in enumerate(levels):
+            h, w = x.shape[-2:]
+            pos = sine_position_encoding(h, w, self.hidden_dim, x.device, x.dtype)  # (D, h, w)
+            mem = self.input_proj[i](x).flatten(2).transpose(1, 2)  # (B, L, D)
+            mems.append(mem + self.level_embed[i])
+            poss.append(pos.flatten(1).transpose(0, 1)[None])  # (1, L, D)
+            sizes.append((h, w))
+        return mems, poss, sizes
+
+    def forward(self, image: torch.Tensor, return_attention: bool = False) -> SegmentationOutput:
+        b, _, h, w = image.shape
+        x = pad_to_multiple(image, self.stride)  # (B, C_in, H', W')
+        mask_features, levels = self.pixel_decoder(self.backbone(x))  # (B, C, H'/4, W'/4)
+        if self.mask_pos_scale:
+            pos = sine_position_encoding(*mask_features.shape[-2:], mask_features.shape[1],
+                                         mask_features.device, mask_features.dtype)
+            mask_features = mask_features + self.mask_pos_scale * pos  # weak absolute position
+        mems, poss, sizes = self._memories(levels)
+        tgt = self.query_feat[None].expand(b, -1, -1)  # (B, n, D)
+        qpos = self.query_pos[None].expand(b, -1, -1)
+        logits = self.mask_head(tgt, mask_features)  # (B, n, H'/4, W'/4)
+        out = SegmentationOutput(logits=logits, masks=logits, aux_logits=[logits])
+        for i, layer in enumerate(self.layers):
+            lvl = i % len(mems)
+            blocked = self.blocked_from_logits(logits, sizes[lvl])  # (B, n, L)
+            tgt, weights = layer(tgt, qpos, mems[lvl], poss[lvl], blocked)
+            logits = self.mask_head(tgt, mask_features)
+            out.aux_logits.append(logits)
+            if return_attention:
+                out.attn_masks.append(blocked)
+                out.attn_weights.append(weights)
+        out.logits = resize(logits, tuple(x.shape[-2:]))[..., :h, :w]  # (B, n, H, W)
+        out.masks = out.logits.softmax(dim=1)  # S: sums to 1 over queries at every pixel
+        return out
