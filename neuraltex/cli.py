@@ -7,9 +7,125 @@ user errors raise :class:`neuraltex.errors.InputError` and become one line + exi
 from __future__ import annotations
 
 import argparse
+from pathlib import Path
 
 from neuraltex import __version__
 from neuraltex.errors import InputError, cli_entry
+
+DEFAULT_MODEL = Path(__file__).resolve().parent / "weights" / "default.safetensors"
+
+
+def _model(args: argparse.Namespace):
+    import torch
+
+    from neuraltex.model import load_model
+
+    path = Path(args.checkpoint) if args.checkpoint else DEFAULT_MODEL
+    if not args.checkpoint and not path.exists():
+        raise InputError("no default model is shipped yet; pass --checkpoint MODEL.safetensors "
+                         "(python -m train writes one)")
+    if args.seed is not None:
+        torch.manual_seed(args.seed)
+    return load_model(path, device=args.device)
+
+
+def _size(args: argparse.Namespace, canvas: tuple[float, float], default_short: int):
+    """(H, W) from --size N (short side) or --size H W, else the canvas at default_short."""
+    if args.size:
+        if len(args.size) == 2:
+            return int(args.size[0]), int(args.size[1])
+        short = int(args.size[0])
+    else:
+        short = default_short
+    w, h = canvas
+    s = short / min(w, h)
+    return max(1, round(h * s)), max(1, round(w * s))
+
+
+def _encode(args: argparse.Namespace, model):
+    import torch
+
+    from neuraltex.imageio import load_image
+
+    image = load_image(args.image, max_side=args.max_side).to(args.device)
+    with torch.no_grad():
+        return image, model.encode(image[None])
+
+
+def cmd_encode(args: argparse.Namespace) -> int:
+    """Encode an image into textons (.json or .pt), optionally with an overlay picture."""
+    from neuraltex.imageio import check_output_path, save_pil
+    from neuraltex.overlay import draw_overlay
+    from neuraltex.textons_file import save_textons
+
+    if args.output.suffix not in (".json", ".pt"):
+        raise InputError(f"{args.output}: textons are written as .json or .pt")
+    if args.overlay:
+        check_output_path(args.overlay)
+    image, enc = _encode(args, _model(args))
+    save_textons(enc.textons, args.output)
+    n = int(enc.textons.num_effective()[0])
+    print(f"wrote {args.output}: {n} effective textons of {enc.textons.num_textons}")
+    if args.overlay:
+        save_pil(draw_overlay(image, enc.textons, enc.masks[0], scale=2), args.overlay)
+        print(f"wrote {args.overlay}")
+    return 0
+
+
+def cmd_decode(args: argparse.Namespace) -> int:
+    """Decode a texton file into an image of any size."""
+    import torch
+
+    from neuraltex.imageio import check_output_path, save_image
+    from neuraltex.textons_file import load_textons
+
+    check_output_path(args.output)
+    textons = load_textons(args.textons)
+    model = _model(args)
+    if textons.feature_dim + 2 != model.generator.feature_channels:
+        raise InputError(f"{args.textons}: {textons.feature_dim} feature channels, but the "
+                         f"model expects {model.generator.feature_channels - 2}")
+    size = _size(args, textons.canvas, 256)
+    with torch.no_grad():
+        out = model.decode(textons.to(device=args.device), size)
+    save_image(out[0], args.output)
+    print(f"wrote {args.output} ({size[1]}x{size[0]})")
+    return 0
+
+
+def cmd_reconstruct(args: argparse.Namespace) -> int:
+    """Encode an image and decode it again (at its own size unless --size)."""
+    import torch
+
+    from neuraltex.imageio import check_output_path, save_image
+
+    check_output_path(args.output)
+    image, enc = _encode(args, model := _model(args))
+    size = _size(args, enc.textons.canvas, min(image.shape[-2:]))
+    with torch.no_grad():
+        out = model.decode(enc.textons, size)
+    save_image(out[0], args.output)
+    print(f"wrote {args.output} ({size[1]}x{size[0]})")
+    return 0
+
+
+def cmd_overlay(args: argparse.Namespace) -> int:
+    """Picture of the textons of an image: segments, Gaussian ellipses, directions."""
+    from neuraltex.fileio import write_text_atomic
+    from neuraltex.imageio import check_output_path, save_pil
+    from neuraltex.overlay import draw_overlay, ellipses_svg
+
+    check_output_path(args.output)
+    if args.svg and args.svg.suffix != ".svg":
+        raise InputError(f"{args.svg}: must end in .svg")
+    image, enc = _encode(args, _model(args))
+    save_pil(draw_overlay(image, enc.textons, enc.masks[0], scale=args.scale), args.output)
+    print(f"wrote {args.output}")
+    if args.svg:
+        H, W = image.shape[-2:]
+        write_text_atomic(args.svg, ellipses_svg(enc.textons, W, H))
+        print(f"wrote {args.svg}")
+    return 0
 
 
 def cmd_textons(args: argparse.Namespace) -> int:
@@ -30,9 +146,18 @@ def cmd_textons(args: argparse.Namespace) -> int:
     return 0
 
 
-def build_parser() -> argparse.ArgumentParser:
-    from pathlib import Path
+def _common(p: argparse.ArgumentParser, size: bool = True) -> None:
+    p.add_argument("--checkpoint", help="model .safetensors (default: the shipped model)")
+    p.add_argument("--device", default="cpu", help="torch device (default: cpu)")
+    p.add_argument("--seed", type=int, help="random seed")
+    p.add_argument("--max-side", type=int, default=2048,
+                   help="larger inputs are downscaled to this side (default 2048)")
+    if size:
+        p.add_argument("--size", type=int, nargs="+", metavar="N",
+                       help="output size: N (short side) or H W")
 
+
+def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="neuraltex",
         description="Gaussian-texton textures: encode, edit and decode textures as textons.",
@@ -45,6 +170,35 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("file", type=Path, help="texton file (.json or .pt)")
     p.add_argument("--to", type=Path, help="also write the textons to this .json or .pt file")
     p.set_defaults(func=cmd_textons)
+
+    p = sub.add_parser("encode", help="image -> textons file", description=cmd_encode.__doc__)
+    p.add_argument("image", type=Path)
+    p.add_argument("-o", "--output", type=Path, required=True, help="textons .json or .pt")
+    p.add_argument("--overlay", type=Path, help="also write an overlay picture")
+    _common(p, size=False)
+    p.set_defaults(func=cmd_encode)
+
+    p = sub.add_parser("decode", help="textons file -> image", description=cmd_decode.__doc__)
+    p.add_argument("textons", type=Path)
+    p.add_argument("-o", "--output", type=Path, required=True, help=".png/.jpg/.webp")
+    _common(p)
+    p.set_defaults(func=cmd_decode)
+
+    p = sub.add_parser("reconstruct", help="image -> textons -> image",
+                       description=cmd_reconstruct.__doc__)
+    p.add_argument("image", type=Path)
+    p.add_argument("-o", "--output", type=Path, required=True, help=".png/.jpg/.webp")
+    _common(p)
+    p.set_defaults(func=cmd_reconstruct)
+
+    p = sub.add_parser("overlay", help="picture of an image's textons",
+                       description=cmd_overlay.__doc__)
+    p.add_argument("image", type=Path)
+    p.add_argument("-o", "--output", type=Path, required=True, help=".png/.jpg/.webp")
+    p.add_argument("--svg", type=Path, help="also write the Gaussians as SVG ellipses")
+    p.add_argument("--scale", type=int, default=2, help="picture magnification (default 2)")
+    _common(p, size=False)
+    p.set_defaults(func=cmd_overlay)
     return parser
 
 

@@ -1,0 +1,88 @@
+"""Reading and writing pictures for the CLIs: any common mode in, RGB float out; atomic writes.
+
+Grayscale, palette, RGBA/LA (composited on white), CMYK and 16-bit images are converted, not
+rejected. Corrupt or unreadable files raise :class:`InputError`. Images larger than
+``max_side`` are downscaled with a notice instead of running out of memory.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+import warnings
+from pathlib import Path
+
+import numpy as np
+import torch
+from PIL import Image, UnidentifiedImageError
+
+from neuraltex.errors import InputError
+from neuraltex.fileio import atomic_path
+
+WRITE_FORMATS = {".png": "PNG", ".jpg": "JPEG", ".jpeg": "JPEG", ".webp": "WEBP"}
+MAX_PIXELS = 16384 * 16384  # refuse to even decode beyond this (decompression bombs)
+
+
+def _to_rgb(im: Image.Image) -> np.ndarray:
+    if im.mode in ("I;16", "I;16B", "I;16L", "I"):
+        arr = np.asarray(im, dtype=np.float64)
+        arr = arr / (65535.0 if arr.max() > 255 else 255.0)
+        return np.repeat(arr[..., None], 3, axis=2).astype(np.float32)
+    if im.mode == "P":
+        im = im.convert("RGBA")
+    if im.mode in ("RGBA", "LA", "PA"):
+        rgba = im.convert("RGBA")
+        white = Image.new("RGBA", rgba.size, (255, 255, 255, 255))
+        im = Image.alpha_composite(white, rgba)
+    return np.asarray(im.convert("RGB"), dtype=np.float32) / 255.0
+
+
+def load_image(path: str | os.PathLike, max_side: int = 2048) -> torch.Tensor:
+    """Read an image as (3, H, W) float32 in [0, 1]."""
+    path = Path(path)
+    if not path.is_file():
+        raise InputError(f"{path}: no such image file")
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("error", Image.DecompressionBombWarning)
+            Image.MAX_IMAGE_PIXELS = MAX_PIXELS
+            with Image.open(path) as im:
+                im.load()
+                w, h = im.size
+                if max(w, h) > max_side:
+                    s = max_side / max(w, h)
+                    size = (max(1, round(w * s)), max(1, round(h * s)))
+                    print(f"note: {path} is {w}x{h}; downscaled to {size[0]}x{size[1]} "
+                          f"(--max-side {max_side})", file=sys.stderr)
+                    im = im.resize(size, Image.Resampling.LANCZOS)
+                arr = _to_rgb(im)
+    except (UnidentifiedImageError, Image.DecompressionBombError,
+            Image.DecompressionBombWarning) as exc:
+        raise InputError(f"{path}: not a readable image ({exc})") from None
+    except (OSError, ValueError, SyntaxError) as exc:
+        raise InputError(f"{path}: corrupt or unsupported image ({exc})") from None
+    if arr.ndim != 3 or min(arr.shape[:2]) < 1:
+        raise InputError(f"{path}: empty image")
+    return torch.from_numpy(np.ascontiguousarray(arr.transpose(2, 0, 1)))
+
+
+def check_output_path(path: str | os.PathLike) -> Path:
+    path = Path(path)
+    if path.suffix.lower() not in WRITE_FORMATS:
+        raise InputError(f"{path}: output must end in one of {', '.join(WRITE_FORMATS)}")
+    return path
+
+
+def save_image(image: torch.Tensor, path: str | os.PathLike) -> None:
+    """Write (3, H, W) in [0, 1] atomically; the format follows the extension."""
+    path = check_output_path(path)
+    arr = (image.detach().float().clamp(0, 1).permute(1, 2, 0).cpu().numpy() * 255).round()
+    pic = Image.fromarray(arr.astype(np.uint8))
+    with atomic_path(path) as tmp:
+        pic.save(tmp, format=WRITE_FORMATS[path.suffix.lower()])
+
+
+def save_pil(pic: Image.Image, path: str | os.PathLike) -> None:
+    path = check_output_path(path)
+    with atomic_path(path) as tmp:
+        pic.convert("RGB").save(tmp, format=WRITE_FORMATS[path.suffix.lower()])
