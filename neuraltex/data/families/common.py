@@ -74,3 +74,9 @@ def inner_fields(rng: np.random.Generator, h: int, w: int, noise_freq: float,
 
 def uniform(rng: np.random.Generator, lo: float, hi: float) -> float:
     return float(rng.uniform(lo, hi))
+
+
+def pick_colors(rng: np.random.Generator, pal: np.ndarray, spread: float, k: int) -> np.ndarray:
+    """``k`` colours: a random palette entry each, plus Gaussian variation. Shape: (k, 3)."""
+    base = pal[rng.integers(0, len(pal), size=k)] if k else np.zeros((0, 3))
+    return np.clip(base + rng.normal(0.0, spread, (k, 3)), 0.0, 1.0).astype(np.float32)

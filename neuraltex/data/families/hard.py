@@ -16,15 +16,23 @@ from neuraltex.data.families.common import (
     jittered_grid,
     lighting,
     noisy_background,
+    pick_colors,
     sensor_noise,
     uniform,
 )
-from neuraltex.data.palette import background_color, near, palette
+from neuraltex.data.palette import background_color, palette
 
 
 def _finish(rng, canvas, light, noise):
     image = lighting(rng, canvas.rgb, light)
     return sensor_noise(rng, image, noise)
+
+
+def _wobble(rng, k: int, amp: tuple[float, float], freqs: tuple[int, ...]) -> np.ndarray:
+    """Radial bumps for blob outlines. Shape: (k, len(freqs), 3) amplitude, frequency, phase."""
+    m = len(freqs)
+    return np.stack([rng.uniform(*amp, (k, m)), np.broadcast_to(np.array(freqs), (k, m)),
+                     rng.uniform(0, 2 * np.pi, (k, m))], -1)
 
 
 def textured(rng, h, w):
@@ -37,18 +45,18 @@ def textured(rng, h, w):
     texture = ("noise", "stripes", "speckle")[int(rng.integers(3))]
     centres = jittered_grid(rng, canvas.extent, cell, uniform(rng, 0.5, 1.0), 0.9)
     rng.shuffle(centres)
-    for cx, cy in centres:
-        t = dict(kind="blob", cx=float(cx), cy=float(cy), r=cell * uniform(rng, 0.35, 0.55),
-                 aspect=uniform(rng, 1.0, 1.4), angle=uniform(rng, 0, np.pi),
-                 wobble=[(uniform(rng, 0.03, 0.1), k, uniform(rng, 0, 6.3)) for k in (2, 3, 5)],
-                 color=near(rng, pal[rng.integers(2)], 0.04)[0], color2=near(rng, bg, 0.05)[0],
-                 dome=uniform(rng, 0.2, 0.45), grad=rng.normal(0, 0.12, 2))
-        if texture == "stripes":
-            t["stripes"] = (uniform(rng, 3, 6), uniform(rng, 0.4, 0.7), uniform(rng, 0, np.pi),
-                            uniform(rng, 0, 6.3))
-        else:
-            t[texture] = uniform(rng, 0.15, 0.3)
-        canvas.paint(t, fields)
+    k = len(centres)
+    t = dict(kind="blob", cx=centres[:, 0], cy=centres[:, 1], r=cell * rng.uniform(0.35, 0.55, k),
+             aspect=rng.uniform(1.0, 1.4, k), angle=rng.uniform(0, np.pi, k),
+             wobble=_wobble(rng, k, (0.03, 0.1), (2, 3, 5)),
+             color=pick_colors(rng, pal, 0.04, k), color2=pick_colors(rng, bg[None], 0.05, k),
+             dome=rng.uniform(0.2, 0.45, k), grad=rng.normal(0, 0.12, (k, 2)))
+    if texture == "stripes":
+        t["stripes"] = np.stack([rng.uniform(3, 6, k), rng.uniform(0.4, 0.7, k),
+                                 rng.uniform(0, np.pi, k), rng.uniform(0, 6.3, k)], 1)
+    else:
+        t[texture] = rng.uniform(0.15, 0.3, k)
+    canvas.paint(t, fields)
     image = _finish(rng, canvas, uniform(rng, 0.15, 0.35), 0.01)
     return image, canvas.ids, dict(cell=cell, texture=texture)
 
@@ -63,13 +71,14 @@ def soft(rng, h, w):
     direction = (np.sign(direction.sum()) or 1.0) * direction / np.linalg.norm(direction)
     centres = jittered_grid(rng, canvas.extent, cell, uniform(rng, 0.5, 1.0), 0.85)
     rng.shuffle(centres)
-    for cx, cy in centres:
-        color = np.clip(bg + contrast * direction * np.sqrt(3) * uniform(rng, 0.7, 1.3), 0, 1)
-        canvas.paint(dict(kind="blob", cx=float(cx), cy=float(cy),
-                          r=cell * uniform(rng, 0.3, 0.48), aspect=uniform(rng, 1.0, 1.5),
-                          angle=uniform(rng, 0, np.pi), soft=cell * uniform(rng, 0.12, 0.25),
-                          wobble=[(uniform(rng, 0.02, 0.08), 3, uniform(rng, 0, 6.3))],
-                          color=color.astype(np.float32), dome=uniform(rng, 0.0, 0.15)))
+    k = len(centres)
+    gain = contrast * np.sqrt(3) * rng.uniform(0.7, 1.3, k)
+    canvas.paint(dict(kind="blob", cx=centres[:, 0], cy=centres[:, 1],
+                      r=cell * rng.uniform(0.3, 0.48, k), aspect=rng.uniform(1.0, 1.5, k),
+                      angle=rng.uniform(0, np.pi, k), soft=cell * rng.uniform(0.12, 0.25, k),
+                      wobble=_wobble(rng, k, (0.02, 0.08), (3,)),
+                      color=np.clip(bg + gain[:, None] * direction, 0, 1).astype(np.float32),
+                      dome=rng.uniform(0.0, 0.15, k)))
     image = _finish(rng, canvas, uniform(rng, 0.25, 0.45), 0.02)
     return image, canvas.ids, dict(cell=cell, contrast=contrast)
 
@@ -77,19 +86,20 @@ def soft(rng, h, w):
 def leaves(rng, h, w):
     """Same-coloured, densely overlapping leaves; only thin outlines, veins and shadows differ."""
     cell = uniform(rng, 0.1, 0.16)
-    base = palette(rng, 1, value=(0.35, 0.8))[0]
+    base = palette(rng, 1, value=(0.35, 0.8))
     canvas = Canvas(noisy_background(rng, h, w, background_color(rng, dark=True), 0.03, 8.0))
     direction, spread = uniform(rng, 0, np.pi), uniform(rng, 0.3, np.pi)
     shadow = (uniform(rng, 0.005, 0.012), uniform(rng, 0.005, 0.012), uniform(rng, 0.25, 0.45))
     centres = jittered_grid(rng, canvas.extent, cell, 1.0, 1.0)
     rng.shuffle(centres)
-    for cx, cy in centres:
-        canvas.paint(dict(kind="leaf", cx=float(cx), cy=float(cy),
-                          r=cell * uniform(rng, 0.8, 1.2), width=uniform(rng, 0.3, 0.45),
-                          angle=direction + uniform(rng, -spread, spread),
-                          color=near(rng, base, 0.02)[0], grad=rng.normal(0, 0.08, 2),
-                          outline=(0.004, uniform(rng, 0.15, 0.35)), shadow=shadow,
-                          vein=(0.003, uniform(rng, 0.1, 0.25))))
+    k = len(centres)
+    canvas.paint(dict(kind="leaf", cx=centres[:, 0], cy=centres[:, 1],
+                      r=cell * rng.uniform(0.8, 1.2, k), width=rng.uniform(0.3, 0.45, k),
+                      angle=direction + rng.uniform(-spread, spread, k),
+                      color=pick_colors(rng, base, 0.02, k), grad=rng.normal(0, 0.08, (k, 2)),
+                      outline=np.stack([np.full(k, 0.004), rng.uniform(0.15, 0.35, k)], 1),
+                      vein=np.stack([np.full(k, 0.003), rng.uniform(0.1, 0.25, k)], 1),
+                      shadow=shadow))
     image = _finish(rng, canvas, uniform(rng, 0.1, 0.3), 0.01)
     return image, canvas.ids, dict(cell=cell, spread=spread)
 
@@ -97,18 +107,20 @@ def leaves(rng, h, w):
 def scales(rng, h, w):
     """Overlapping fish scales in staggered rows, one colour, told apart by shading only."""
     cell = uniform(rng, 0.1, 0.16)
-    base = palette(rng, 1, value=(0.4, 0.85))[0]
-    canvas = Canvas(np.broadcast_to(base, (h, w, 3)).astype(np.float32))
+    base = palette(rng, 1, value=(0.4, 0.85))
+    canvas = Canvas(np.broadcast_to(base[0], (h, w, 3)).astype(np.float32))
     extent = canvas.extent
     row_step = cell * uniform(rng, 0.45, 0.6)
     n_rows, n_cols = int(extent[1] / row_step) + 3, int(extent[0] / cell) + 3
+    rows, cols = np.meshgrid(np.arange(-1, n_rows), np.arange(-1, n_cols), indexing="ij")
+    rows, cols = rows.ravel(), cols.ravel()  # row-major: lower rows painted last, on top
+    k = len(rows)
     grad, dome = uniform(rng, 0.25, 0.45), uniform(rng, 0.0, 0.2)
-    for row in range(-1, n_rows):  # top to bottom: lower rows cover the ones above
-        shift = 0.5 * cell * (row % 2)
-        for col in range(-1, n_cols):
-            canvas.paint(dict(kind="ellipse", cx=(col + 0.5) * cell + shift,
-                              cy=row * row_step, r=cell * 0.62, color=near(rng, base, 0.02)[0],
-                              grad=(0.0, grad), dome=dome, outline=(0.003, 0.1)))
+    canvas.paint(dict(kind="ellipse", cx=((cols + 0.5 + 0.5 * (rows % 2)) * cell),
+                      cy=rows * row_step, r=np.full(k, cell * 0.62),
+                      color=pick_colors(rng, base, 0.02, k),
+                      grad=np.tile([0.0, grad], (k, 1)), dome=dome,
+                      outline=np.tile([0.003, 0.1], (k, 1))))
     image = _finish(rng, canvas, uniform(rng, 0.1, 0.3), 0.01)
     return image, canvas.ids, dict(cell=cell, row_step=row_step)
 
@@ -122,11 +134,12 @@ def strokes(rng, h, w):
     direction, spread = uniform(rng, 0, np.pi), uniform(rng, 0.1, 0.4)
     centres = jittered_grid(rng, canvas.extent, cell, 1.0, 0.9)
     rng.shuffle(centres)
-    for cx, cy in centres:
-        canvas.paint(dict(kind="capsule", cx=float(cx), cy=float(cy),
-                          r=cell * uniform(rng, 1.0, 1.6), width=uniform(rng, 0.1, 0.16),
-                          angle=direction + rng.normal(0, spread),
-                          color=near(rng, pal[rng.integers(2)], 0.03)[0],
-                          grad=(uniform(rng, -0.3, 0.3), 0.0), outline=(0.003, 0.15)))
+    k = len(centres)
+    canvas.paint(dict(kind="capsule", cx=centres[:, 0], cy=centres[:, 1],
+                      r=cell * rng.uniform(1.0, 1.6, k), width=rng.uniform(0.1, 0.16, k),
+                      angle=direction + rng.normal(0, spread, k),
+                      color=pick_colors(rng, pal, 0.03, k),
+                      grad=np.stack([rng.uniform(-0.3, 0.3, k), np.zeros(k)], 1),
+                      outline=np.tile([0.003, 0.15], (k, 1))))
     image = _finish(rng, canvas, uniform(rng, 0.1, 0.3), 0.01)
     return image, canvas.ids, dict(cell=cell, spread=spread)

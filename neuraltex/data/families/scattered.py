@@ -2,6 +2,7 @@
 
 Each family is ``render(rng, h, w) -> (image (H, W, 3), ids (H, W), params)``; the
 ids are raw painter ids (0 = background) that the generator relabels to 1..K.
+Per-texton parameters are drawn as arrays, one row per texton, in depth order.
 """
 
 from __future__ import annotations
@@ -12,20 +13,21 @@ from neuraltex.data.canvas import Canvas
 from neuraltex.data.families.common import (
     jittered_grid,
     noisy_background,
+    pick_colors,
     sensor_noise,
     uniform,
 )
-from neuraltex.data.palette import background_color, near, palette
+from neuraltex.data.palette import background_color, palette
 
 
-def _scatter(rng, h, w, cell, jitter, presence, make_texton, bg_noise=0.0, bg_freq=4.0,
+def _scatter(rng, h, w, cell, jitter, presence, make_textons, bg_noise=0.0, bg_freq=4.0,
              dark=None):
     bg = background_color(rng, dark)
     canvas = Canvas(noisy_background(rng, h, w, bg, bg_noise, bg_freq))
     centres = jittered_grid(rng, canvas.extent, cell, jitter, presence)
     rng.shuffle(centres)  # random depth order
-    for cx, cy in centres:
-        canvas.paint(dict(make_texton(), cx=float(cx), cy=float(cy)))
+    t = make_textons(len(centres))
+    canvas.paint(dict(t, cx=centres[:, 0], cy=centres[:, 1]))
     image = sensor_noise(rng, canvas.rgb, 0.005)
     return image, canvas.ids, dict(cell=cell, jitter=jitter, presence=presence,
                                    bg_noise=bg_noise)
@@ -37,12 +39,12 @@ def discs(rng, h, w):
     pal, spread = palette(rng, int(rng.integers(1, 4))), uniform(rng, 0.0, 0.05)
     max_aspect = uniform(rng, 1.0, 1.8)
 
-    def texton():
-        return dict(kind="ellipse", r=cell * uniform(rng, 0.18, 0.42),
-                    aspect=uniform(rng, 1.0, max_aspect), angle=uniform(rng, 0, np.pi),
-                    color=near(rng, pal[rng.integers(len(pal))], spread)[0])
+    def textons(k):
+        return dict(kind="ellipse", r=cell * rng.uniform(0.18, 0.42, k),
+                    aspect=rng.uniform(1.0, max_aspect, k), angle=rng.uniform(0, np.pi, k),
+                    color=pick_colors(rng, pal, spread, k))
 
-    return _scatter(rng, h, w, cell, jitter, presence, texton, uniform(rng, 0, 0.03))
+    return _scatter(rng, h, w, cell, jitter, presence, textons, uniform(rng, 0, 0.03))
 
 
 def polygons(rng, h, w):
@@ -53,12 +55,12 @@ def polygons(rng, h, w):
     depth = uniform(rng, 0.3, 0.6)
     pal, spread = palette(rng, int(rng.integers(1, 4))), uniform(rng, 0.0, 0.05)
 
-    def texton():
+    def textons(k):
         return dict(kind="star" if star else "polygon", n=n, star=depth,
-                    r=cell * uniform(rng, 0.28, 0.45), angle=uniform(rng, 0, 2 * np.pi),
-                    color=near(rng, pal[rng.integers(len(pal))], spread)[0])
+                    r=cell * rng.uniform(0.28, 0.45, k), angle=rng.uniform(0, 2 * np.pi, k),
+                    color=pick_colors(rng, pal, spread, k))
 
-    return _scatter(rng, h, w, cell, jitter, uniform(rng, 0.7, 1.0), texton,
+    return _scatter(rng, h, w, cell, jitter, uniform(rng, 0.7, 1.0), textons,
                     uniform(rng, 0, 0.03))
 
 
@@ -70,25 +72,25 @@ def grid(rng, h, w):
     n, corner = int(rng.integers(3, 7)), uniform(rng, 0.05, 0.4)
     pal = palette(rng, int(rng.integers(1, 3)))
 
-    def texton():
-        return dict(kind=kind, n=n, corner=corner, r=cell * size * uniform(rng, 0.95, 1.05),
-                    angle=angle + uniform(rng, -0.05, 0.05),
-                    color=near(rng, pal[rng.integers(len(pal))], 0.02)[0])
+    def textons(k):
+        return dict(kind=kind, n=n, corner=corner, r=cell * size * rng.uniform(0.95, 1.05, k),
+                    angle=angle + rng.uniform(-0.05, 0.05, k),
+                    color=pick_colors(rng, pal, 0.02, k))
 
-    return _scatter(rng, h, w, cell, uniform(rng, 0.0, 0.12), 1.0, texton)
+    return _scatter(rng, h, w, cell, uniform(rng, 0.0, 0.12), 1.0, textons)
 
 
 def dots(rng, h, w):
     """Small, well-contrasted dots on a noisy (fBm) background."""
     cell, dark = uniform(rng, 0.07, 0.12), bool(rng.uniform() < 0.5)
-    base = palette(rng, 1, value=(0.85, 1.0) if dark else (0.15, 0.35))[0]
+    base = palette(rng, 1, value=(0.85, 1.0) if dark else (0.15, 0.35))
 
-    def texton():
-        return dict(kind="ellipse", r=cell * uniform(rng, 0.18, 0.32),
-                    aspect=uniform(rng, 1.0, 1.3), angle=uniform(rng, 0, np.pi),
-                    color=near(rng, base, 0.04)[0])
+    def textons(k):
+        return dict(kind="ellipse", r=cell * rng.uniform(0.18, 0.32, k),
+                    aspect=rng.uniform(1.0, 1.3, k), angle=rng.uniform(0, np.pi, k),
+                    color=pick_colors(rng, base, 0.04, k))
 
-    return _scatter(rng, h, w, cell, uniform(rng, 0.5, 1.0), uniform(rng, 0.6, 1.0), texton,
+    return _scatter(rng, h, w, cell, uniform(rng, 0.5, 1.0), uniform(rng, 0.6, 1.0), textons,
                     bg_noise=uniform(rng, 0.08, 0.15), bg_freq=uniform(rng, 4, 10), dark=dark)
 
 
@@ -99,15 +101,16 @@ def mixture(rng, h, w):
     pal = palette(rng, 2)
     share = uniform(rng, 0.3, 0.7)
 
-    def texton():
-        if rng.uniform() < share:
-            return dict(kind=big_kind, corner=0.3, r=cell * uniform(rng, 0.35, 0.48),
-                        aspect=uniform(rng, 1.0, 1.4), angle=uniform(rng, 0, np.pi),
-                        color=near(rng, pal[0], 0.03)[0])
-        return dict(kind="star", n=5, star=0.5, r=cell * uniform(rng, 0.2, 0.3),
-                    angle=uniform(rng, 0, 2 * np.pi), color=near(rng, pal[1], 0.03)[0])
+    def textons(k):
+        big = rng.uniform(size=k) < share
+        return dict(kind=np.where(big, big_kind, "star"), corner=0.3, n=5, star=0.5,
+                    r=cell * np.where(big, rng.uniform(0.35, 0.48, k), rng.uniform(0.2, 0.3, k)),
+                    aspect=np.where(big, rng.uniform(1.0, 1.4, k), 1.0),
+                    angle=rng.uniform(0, 2 * np.pi, k),
+                    color=np.where(big[:, None], pick_colors(rng, pal[:1], 0.03, k),
+                                   pick_colors(rng, pal[1:], 0.03, k)))
 
-    return _scatter(rng, h, w, cell, uniform(rng, 0.4, 1.0), uniform(rng, 0.7, 1.0), texton,
+    return _scatter(rng, h, w, cell, uniform(rng, 0.4, 1.0), uniform(rng, 0.7, 1.0), textons,
                     uniform(rng, 0, 0.03))
 
 
@@ -117,14 +120,16 @@ def two_tone(rng, h, w):
     pal = palette(rng, 2)
     core, freq, sang = uniform(rng, 0.35, 0.6), uniform(rng, 1.5, 3.0), uniform(rng, 0, np.pi)
 
-    def texton():
-        t = dict(kind="ellipse", r=cell * uniform(rng, 0.3, 0.45), aspect=uniform(rng, 1, 1.3),
-                 angle=uniform(rng, 0, np.pi), color=near(rng, pal[0], 0.03)[0],
-                 color2=near(rng, pal[1], 0.03)[0])
+    def textons(k):
+        t = dict(kind="ellipse", r=cell * rng.uniform(0.3, 0.45, k),
+                 aspect=rng.uniform(1, 1.3, k), angle=rng.uniform(0, np.pi, k),
+                 color=pick_colors(rng, pal[:1], 0.03, k),
+                 color2=pick_colors(rng, pal[1:], 0.03, k))
         if striped:
-            t["stripes"] = (freq, 1.0, sang, uniform(rng, 0, 2 * np.pi))
+            t["stripes"] = np.stack([np.full(k, freq), np.ones(k), np.full(k, sang),
+                                     rng.uniform(0, 2 * np.pi, k)], 1)
         else:
             t["core"] = core
         return t
 
-    return _scatter(rng, h, w, cell, uniform(rng, 0.2, 0.8), uniform(rng, 0.7, 1.0), texton)
+    return _scatter(rng, h, w, cell, uniform(rng, 0.2, 0.8), uniform(rng, 0.7, 1.0), textons)
