@@ -5,15 +5,13 @@ Masks are 16-bit grayscale PNGs holding the instance ids (0 = background).
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import numpy as np
 from PIL import Image, ImageDraw
-from tqdm import tqdm
 
-from neuraltex.data.generator import Sample, generate
-from neuraltex.fileio import atomic_path, write_text_atomic
+from neuraltex.data.generator import Sample
+from neuraltex.fileio import atomic_path
 
 
 def overlay(image: np.ndarray, mask: np.ndarray, opacity: float = 0.45) -> np.ndarray:
@@ -72,25 +70,3 @@ def write_sample(out: Path, name: str, sample: Sample) -> dict:
 def read_mask(path: str | Path) -> np.ndarray:
     """Read a mask written by :func:`write_sample`. Returns (H, W) int32."""
     return np.asarray(Image.open(path)).astype(np.int32)
-
-
-def export(out: str | Path, n: int, seed: int = 0, size: int = 128, families=None,
-           sheet_count: int = 32, progress: bool = True) -> Path:
-    """Export ``n`` samples (round-robin over ``families`` if given) and a contact sheet.
-
-    Writes OUT/images/*.png, OUT/masks/*.png, OUT/meta.jsonl and OUT/contact_sheet.png.
-    Returns the contact sheet path.
-    """
-    out = Path(out)
-    rows, sheet = [], []
-    for i in tqdm(range(n), desc="export", disable=not progress):
-        fam = families[i % len(families)] if families else None
-        s = generate(i, seed, size, family=fam)
-        rows.append(write_sample(out, f"{i:06d}", s))
-        if len(sheet) < sheet_count:
-            sheet.append(s)
-    write_text_atomic(out / "meta.jsonl", "".join(json.dumps(r) + "\n" for r in rows))
-    path = out / "contact_sheet.png"
-    with atomic_path(path) as tmp:
-        contact_sheet(sheet).save(tmp)
-    return path

@@ -44,7 +44,8 @@ class Sample:
         return dict(family=self.family, hard=self.hard, seed=self.seed, index=self.index,
                     count=self.count, height=self.mask.shape[0], width=self.mask.shape[1],
                     params={k: _plain(v) for k, v in self.params.items()},
-                    centers=None if self.centers is None else self.centers.round(5).tolist())
+                    centers=None if self.centers is None
+                    else np.round(self.centers.astype(np.float64), 5).tolist())
 
 
 def sample_rng(seed: int, index: int) -> Draws:
