@@ -22,7 +22,8 @@ class Family:
 
 def _family(render: Callable, is_hard: bool) -> Family:
     doc = (render.__doc__ or "").strip().removeprefix("HARD: ")
-    return Family(render.__name__, is_hard, render, doc.splitlines()[0] if doc else "")
+    first = doc.splitlines()[0] if doc else ""
+    return Family(render.__name__, is_hard, render, first[:1].upper() + first[1:])
 
 
 # Ordered from stochastic to regular within each group; the order is part of the
@@ -33,7 +34,7 @@ FAMILIES: dict[str, Family] = {f.name: f for f in [
     _family(scattered.grid, False),
     _family(scattered.dots, False),
     _family(scattered.mixture, False),
-    _family(scattered.two_tone, False),
+    _family(scattered.two_tone, True),
     _family(tiled.stones, False),
     _family(tiled.bricks, False),
     _family(tiled.hex_tiles, False),

@@ -41,12 +41,17 @@ def textured(rng, h, w):
     bg = palette(rng, 1, value=(0.3, 0.7))[0]
     canvas = Canvas(noisy_background(rng, h, w, bg, uniform(rng, 0.08, 0.15), 12.0))
     fields = inner_fields(rng, h, w, uniform(rng, 15, 35), uniform(rng, 25, 45))
-    pal = palette(rng, 2, value=(0.3, 0.9))
+    # Texton colours sit a modest step away from the background, which is as textured
+    # as the textons: colour alone does not separate them.
+    contrast = uniform(rng, 0.12, 0.25)
+    steps = rng.normal(0, 1, (2, 3))
+    steps = contrast * np.sqrt(3) * steps / np.linalg.norm(steps, axis=1, keepdims=True)
+    pal = np.clip(bg[None] + steps, 0, 1).astype(np.float32)
     texture = ("noise", "stripes", "speckle")[int(rng.integers(3))]
-    centres = jittered_grid(rng, canvas.extent, cell, uniform(rng, 0.5, 1.0), 0.9)
+    centres = jittered_grid(rng, canvas.extent, cell, uniform(rng, 0.5, 1.0), 0.95)
     rng.shuffle(centres)
-    k = len(centres)
-    t = dict(kind="blob", cx=centres[:, 0], cy=centres[:, 1], r=cell * rng.uniform(0.35, 0.55, k),
+    k = len(centres)  # dense: neighbours touch and overlap
+    t = dict(kind="blob", cx=centres[:, 0], cy=centres[:, 1], r=cell * rng.uniform(0.42, 0.62, k),
              aspect=rng.uniform(1.0, 1.4, k), angle=rng.uniform(0, np.pi, k),
              wobble=_wobble(rng, k, (0.03, 0.1), (2, 3, 5)),
              color=pick_colors(rng, pal, 0.04, k), color2=pick_colors(rng, bg[None], 0.05, k),
@@ -55,10 +60,10 @@ def textured(rng, h, w):
         t["stripes"] = np.stack([rng.uniform(3, 6, k), rng.uniform(0.4, 0.7, k),
                                  rng.uniform(0, np.pi, k), rng.uniform(0, 6.3, k)], 1)
     else:
-        t[texture] = rng.uniform(0.15, 0.3, k)
+        t[texture] = rng.uniform(0.2, 0.35, k)
     canvas.paint(t, fields)
     image = _finish(rng, canvas, uniform(rng, 0.15, 0.35), 0.01)
-    return image, canvas.ids, dict(cell=cell, texture=texture)
+    return image, canvas.ids, dict(cell=cell, texture=texture, contrast=contrast)
 
 
 def soft(rng, h, w):
