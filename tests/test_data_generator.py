@@ -55,10 +55,12 @@ def test_bad_input():
         generate(-1, 0, 32)
 
 
-def test_relabel_first_appearance():
+def test_relabel_keeps_order():
     ids = np.array([[0, 9, 9], [4, 4, 0], [7, 0, 9]])
-    out = relabel(ids)
-    np.testing.assert_array_equal(out, [[0, 1, 1], [2, 2, 0], [3, 0, 1]])
+    np.testing.assert_array_equal(relabel(ids), [[0, 3, 3], [1, 1, 0], [2, 0, 3]])
+    sparse = np.array([[10**9, 5], [0, 5]])  # far apart ids take the slow path
+    np.testing.assert_array_equal(relabel(sparse), [[2, 1], [0, 1]])
+    np.testing.assert_array_equal(relabel(np.array([[3, 3], [8, 3]])), [[1, 1], [2, 1]])
 
 
 def test_mask_centers_hand_case():

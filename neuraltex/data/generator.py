@@ -6,6 +6,7 @@ renders the same texture at any resolution; only per-pixel sensor noise differs.
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -22,8 +23,8 @@ class Sample:
     """A generated texture.
 
     image: (H, W, 3) float32 in [0, 1]. mask: (H, W) int32, 0 = background, 1..K textons
-    (ids ordered by first appearance in raster order). centers: (K, 2) float32 mask
-    centroids in normalized coords (x, y; short side 1), row k-1 for texton k.
+    (ids in painting order, back to front, for overlapping families). centers: (K, 2)
+    float32 mask centroids in normalized coords (x, y; short side 1), row k-1 for texton k.
     """
 
     image: np.ndarray
@@ -33,7 +34,10 @@ class Sample:
     seed: int
     index: int
     params: dict = field(default_factory=dict)
-    centers: np.ndarray | None = None
+
+    @functools.cached_property
+    def centers(self) -> np.ndarray:
+        return mask_centers(self.mask)
 
     @property
     def count(self) -> int:
@@ -44,8 +48,7 @@ class Sample:
         return dict(family=self.family, hard=self.hard, seed=self.seed, index=self.index,
                     count=self.count, height=self.mask.shape[0], width=self.mask.shape[1],
                     params={k: _plain(v) for k, v in self.params.items()},
-                    centers=None if self.centers is None
-                    else np.round(self.centers.astype(np.float64), 5).tolist())
+                    centers=np.round(self.centers.astype(np.float64), 5).tolist())
 
 
 def sample_rng(seed: int, index: int) -> Draws:
@@ -74,19 +77,22 @@ def generate(index: int, seed: int = 0, size: int | tuple[int, int] = 128,
     image, ids, params = fam.render(rng, h, w)
     mask = relabel(ids)
     return Sample(np.clip(image, 0.0, 1.0).astype(np.float32), mask, name, fam.hard,
-                  int(seed), int(index), params, mask_centers(mask))
+                  int(seed), int(index), params)
 
 
 def relabel(ids: np.ndarray) -> np.ndarray:
-    """Map raw ids to 0 (background stays 0) and 1..K in order of first raster appearance."""
-    uniq, first, inverse = np.unique(ids.ravel(), return_index=True, return_inverse=True)
-    nonzero = uniq != 0
-    order = np.argsort(first[nonzero])
-    ranks = np.empty(len(order), np.int64)
-    ranks[order] = np.arange(1, len(order) + 1)
-    new = np.zeros(len(uniq), np.int64)
-    new[nonzero] = ranks
-    return new[inverse].reshape(ids.shape).astype(np.int32)
+    """Map raw ids to 0 (background stays 0) and 1..K, keeping their order.
+
+    Painter ids grow back to front, so texton k+1 lies above texton k where they overlap.
+    """
+    flat = ids.ravel()
+    if flat.size and (flat.min() < 0 or flat.max() > 16 * flat.size):
+        _, flat = np.unique(flat, return_inverse=True)  # sparse ids: compact first
+        flat = flat + (1 if ids.min() > 0 else 0)
+    present = np.bincount(flat) > 0
+    present[0] = False
+    lut = np.cumsum(present) * present  # raw id -> 1..K, absent/background -> 0
+    return lut[flat].reshape(ids.shape).astype(np.int32)
 
 
 def mask_centers(mask: np.ndarray) -> np.ndarray:
