@@ -143,7 +143,7 @@ METHODS: dict[str, Method] = {m.name: m for m in [
     Method("grid", grid_segmenter, "cells", 6, (4, 6, 8, 10, 12, 14, 16, 20, 24)),
     Method("slic", slic_segmenter, "n_segments", 100, (25, 50, 75, 100, 150, 200, 300)),
     Method("felzenszwalb", felzenszwalb_segmenter, "scale", 100,
-           (25, 50, 100, 200, 400, 800, 1600)),
+           (5, 10, 25, 50, 100, 200, 400, 800)),
     Method("kmeans", kmeans_segmenter, "k", 4, (2, 3, 4, 5, 6, 8)),
 ]}
 
