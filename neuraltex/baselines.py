@@ -140,11 +140,11 @@ class Method:
 # Defaults are the values picked by `python scripts/eval_textons.py --tune` on the
 # validation split (see docs/baselines.md).
 METHODS: dict[str, Method] = {m.name: m for m in [
-    Method("grid", grid_segmenter, "cells", 6, (4, 6, 8, 10, 12, 14, 16, 20, 24)),
-    Method("slic", slic_segmenter, "n_segments", 100, (25, 50, 75, 100, 150, 200, 300)),
-    Method("felzenszwalb", felzenszwalb_segmenter, "scale", 100,
+    Method("grid", grid_segmenter, "cells", 12, (4, 6, 8, 10, 12, 14, 16, 20, 24)),
+    Method("slic", slic_segmenter, "n_segments", 200, (25, 50, 75, 100, 150, 200, 300)),
+    Method("felzenszwalb", felzenszwalb_segmenter, "scale", 10,
            (5, 10, 25, 50, 100, 200, 400, 800)),
-    Method("kmeans", kmeans_segmenter, "k", 4, (2, 3, 4, 5, 6, 8)),
+    Method("kmeans", kmeans_segmenter, "k", 5, (2, 3, 4, 5, 6, 8)),
 ]}
 
 

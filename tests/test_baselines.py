@@ -68,7 +68,7 @@ def test_eval_script_end_to_end(tmp_path, capsys):
                             "--markdown", str(md)])
     assert rc == 0
     text = md.read_text()
-    for row in ("discs (easy)", "leaves (hard)", "**overall**", "k=4", "cells=6"):
+    for row in ("discs (easy)", "leaves (hard)", "**overall**", "k=5", "cells=12"):
         assert row in text
     assert eval_textons.main(["--method", "nope"]) == 2
     assert eval_textons.main(["--method", "model"]) == 2
