@@ -60,16 +60,25 @@ def random_affine(rng: np.random.Generator, image: np.ndarray, mask: np.ndarray 
 
 def _bilinear(image: np.ndarray, r: np.ndarray, c: np.ndarray) -> np.ndarray:
     """Sample (H, W, C) at fractional (row, col) maps (h, w), clamping at the border."""
-    h, w = image.shape[:2]
-    r = np.clip(r, 0, h - 1)
-    c = np.clip(c, 0, w - 1)
-    r0 = np.minimum(r.astype(np.int64), h - 2) if h > 1 else np.zeros(r.shape, np.int64)
-    c0 = np.minimum(c.astype(np.int64), w - 2) if w > 1 else np.zeros(c.shape, np.int64)
-    fr, fc = (r - r0)[..., None], (c - c0)[..., None]
-    r1, c1 = np.minimum(r0 + 1, h - 1), np.minimum(c0 + 1, w - 1)
-    top = image[r0, c0] + (image[r0, c1] - image[r0, c0]) * fc
-    bottom = image[r1, c0] + (image[r1, c1] - image[r1, c0]) * fc
-    return (top + (bottom - top) * fr).astype(np.float32)
+    h, w, ch = image.shape
+    shape = r.shape
+    r = np.clip(r, 0, h - 1).astype(np.float32).ravel()
+    c = np.clip(c, 0, w - 1).astype(np.float32).ravel()
+    r0 = np.minimum(r.astype(np.int64), max(h - 2, 0))
+    c0 = np.minimum(c.astype(np.int64), max(w - 2, 0))
+    fr, fc = r - r0.astype(np.float32), c - c0.astype(np.float32)  # (h*w,) float32
+    i00 = r0 * w + c0  # flat index of the top-left neighbour
+    i01, i10 = i00 + (1 if w > 1 else 0), i00 + (w if h > 1 else 0)
+    i11 = i10 + (1 if w > 1 else 0)
+    # Work on contiguous colour planes: numpy is slow on a short trailing axis.
+    planes = np.ascontiguousarray(image.transpose(2, 0, 1)).reshape(ch, -1)  # (C, H*W)
+    out = np.empty((ch, r.size), np.float32)
+    for k in range(ch):
+        p = planes[k]
+        top = p.take(i00) + (p.take(i01) - p.take(i00)) * fc
+        bottom = p.take(i10) + (p.take(i11) - p.take(i10)) * fc
+        out[k] = top + (bottom - top) * fr
+    return np.ascontiguousarray(out.T).reshape(*shape, ch)
 
 
 def match_histograms(image: np.ndarray, reference: np.ndarray, knots: int = 17,
@@ -88,7 +97,8 @@ def match_histograms(image: np.ndarray, reference: np.ndarray, knots: int = 17,
     # Quantiles from at most ~4096 pixels each: plenty for 17 knots, and 4x cheaper.
     src = np.quantile(_subsample(image), q, axis=0)  # (knots, C)
     ref = np.quantile(_subsample(reference), q, axis=0)
-    out = np.empty(image.shape, np.float32)
+    planes = np.ascontiguousarray(image.transpose(2, 0, 1))  # (C, H, W)
+    out = np.empty(planes.shape, np.float32)
     for ch in range(image.shape[2]):
         xs, ys = src[:, ch], ref[:, ch]
         dy = np.minimum(np.diff(ys), max_slope * np.diff(xs))  # (knots - 1,)
@@ -97,8 +107,8 @@ def match_histograms(image: np.ndarray, reference: np.ndarray, knots: int = 17,
         # Beyond the outer knots continue with slope 1.
         xs = np.concatenate([[xs[0] - 1.0], xs, [xs[-1] + 1.0]])
         ys = np.concatenate([[ys[0] - 1.0], ys, [ys[-1] + 1.0]])
-        out[..., ch] = np.interp(image[..., ch], xs, ys)
-    return np.clip(out, 0.0, 1.0)
+        out[ch] = np.interp(planes[ch], xs, ys)
+    return np.ascontiguousarray(np.clip(out, 0.0, 1.0).transpose(1, 2, 0))
 
 
 def _subsample(image: np.ndarray, limit: int = 4096) -> np.ndarray:

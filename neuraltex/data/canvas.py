@@ -20,8 +20,10 @@ _REACH = {"box": 1.42, "blob": 1.35, "capsule": 1.05, "leaf": 1.05}
 
 
 class Canvas:
-    """An (H, W, 3) float32 image plus an (H, W) int32 id map. Background id is 0.
+    """An RGB image plus an (H, W) int32 id map. Background id is 0.
 
+    The image is kept as colour planes (3, H, W): broadcasting a coverage map over a
+    short trailing colour axis is several times slower in numpy. ``rgb`` gives (H, W, 3).
     Coordinates are normalized: short side S = 1, pixel (i, j) centre at
     ((j + 0.5) / S, (i + 0.5) / S).
     """
@@ -32,10 +34,15 @@ class Canvas:
         self.h, self.w = background.shape[:2]
         self.s = min(self.h, self.w)
         self.px = 1.0 / self.s
-        self.rgb = background.astype(np.float32).copy()
+        self.planes = np.ascontiguousarray(background.transpose(2, 0, 1), np.float32)  # (3, H, W)
         self.ids = np.zeros((self.h, self.w), np.int32)
         self.weight = np.ones((self.h, self.w), np.float32)
         self.next_id = 1
+
+    @property
+    def rgb(self) -> np.ndarray:
+        """The image, (H, W, 3) float32 (a copy)."""
+        return np.ascontiguousarray(self.planes.transpose(1, 2, 0))
 
     @property
     def extent(self) -> tuple[float, float]:
@@ -73,12 +80,12 @@ class Canvas:
             (sy, sx), (wy, wx) = win
             if shadow is not None:
                 self._composite(sy, sx, shadow[wy, wx], np.float32(0.0), None)
-            self._composite(sy, sx, alpha[wy, wx], color[wy, wx], int(ids[i]))
+            self._composite(sy, sx, alpha[wy, wx], color[:, wy, wx], int(ids[i]))
 
     def _layers(self, t, k, sel, side_x, side_y, x0, y0, fields) -> dict:
         """Layers of textons ``sel`` on (side_y, side_x) windows.
 
-        Returns {texton index: (alpha (h, w), colour (h, w, 3), shadow alpha or None)}.
+        Returns {texton index: (alpha (h, w), colour (3, h, w), shadow alpha or None)}.
         """
         sub = {n: (v[sel] if isinstance(v, np.ndarray) and v.shape[:1] == (k,) else v)
                for n, v in t.items()}
@@ -109,15 +116,15 @@ class Canvas:
 
     def _composite(self, sy: slice, sx: slice, alpha: np.ndarray, color: np.ndarray,
                    owner: int | None) -> None:
-        rgb = self.rgb[sy, sx]  # views: updated in place
-        rgb += (color - rgb) * alpha[..., None]
+        rgb = self.planes[:, sy, sx]  # (3, h, w) view: updated in place
+        rgb += (color - rgb) * alpha
         if owner is None:  # shadows darken what is below without taking it over
             return
         weight = self.weight[sy, sx]
         weight *= 1.0 - alpha
         take = alpha > weight
         np.maximum(weight, alpha, out=weight)
-        self.ids[sy, sx][take] = owner
+        np.copyto(self.ids[sy, sx], owner, where=take)
 
 
 def _half_extents(t: dict, k: int) -> tuple[np.ndarray, np.ndarray]:
@@ -146,8 +153,9 @@ def _kinds(t: dict) -> list[str]:
 
 
 def _col(v, k: int) -> np.ndarray:
-    """A per-texton parameter as (K, 1, 1) float32 (scalars broadcast)."""
-    return np.broadcast_to(np.asarray(v, np.float32), (k,)).reshape(k, 1, 1)
+    """A per-texton parameter as (K, 1, 1) float32; a scalar stays a scalar."""
+    a = np.asarray(v, np.float32)
+    return a.reshape(k, 1, 1) if a.ndim else a
 
 
 def texton_layers(X: np.ndarray, Y: np.ndarray, t: dict, px: float, fields: dict | None,
@@ -155,7 +163,7 @@ def texton_layers(X: np.ndarray, Y: np.ndarray, t: dict, px: float, fields: dict
     """Coverage and colour of K textons on their windows.
 
     Shape: ``X`` (K, 1, w), ``Y`` (K, h, 1) normalized coords -> alpha (K, h, w),
-    colour (K, h, w, 3). Keys of ``t`` (arrays with K rows, or scalars): cx, cy, r, kind
+    colour (K, 3, h, w). Keys of ``t`` (arrays with K rows, or scalars): cx, cy, r, kind
     (str, or (K,) str array), color (K, 3). Optional: angle, aspect, soft,
     n/star/corner/width/wobble (shape, see :func:`shapes.sdf`), dome, grad (K, 2),
     color2 (K, 3) with core (two-tone core radius) or stripes (K, 4: freq, amp, angle,
@@ -186,25 +194,32 @@ def texton_layers(X: np.ndarray, Y: np.ndarray, t: dict, px: float, fields: dict
     if "grad" in t:  # linear lighting across the texton
         g = np.asarray(t["grad"], np.float32)
         shade = shade + g[:, 0, None, None] * u + g[:, 1, None, None] * v
-    color = np.asarray(t["color"], np.float32)[:, None, None, :]  # (K, 1, 1, 3)
+    color = np.asarray(t["color"], np.float32)[:, :, None, None]  # (K, 3, 1, 1)
     if "core" in t:  # two-tone: an inner core of a second colour
         core = np.clip(0.5 - (np.sqrt(u * u + v * v) - _col(t["core"], k)) * scale / px, 0, 1)
-        color = color + core[..., None] * (t["color2"][:, None, None, :] - color)
+        color = color + core[:, None] * (_rgb(t["color2"]) - color)
     if "stripes" in t:
         st = np.asarray(t["stripes"], np.float32)[:, :, None, None]  # (K, 4, 1, 1)
         w = u * np.cos(st[:, 2]) + v * np.sin(st[:, 2])
         band = np.clip(2.0 * np.sin(np.pi * st[:, 0] * w + st[:, 3]), -1.0, 1.0) * 0.5 + 0.5
-        color = color + (st[:, 1] * band)[..., None] * (t["color2"][:, None, None, :] - color)
-    color = color * np.asarray(shade)[..., None]
+        color = color + (st[:, 1] * band)[:, None] * (_rgb(t["color2"]) - color)
+    if np.ndim(shade):
+        color = color * shade[:, None]
     for name in ("noise", "speckle"):
         if fields is not None and name in t:
-            color = color + (_col(t[name], k) * fields[name])[..., None]
+            color = color + (_col(t[name], k) * fields[name])[:, None]
     if "outline" in t:  # a dark band just inside the boundary
         o = np.asarray(t["outline"], np.float32)[:, :, None, None]
         band = np.clip(0.5 + (d + o[:, 0]) / px, 0.0, 1.0)
-        color = color * (1.0 - o[:, 1] * band)[..., None]
+        color = color * (1.0 - o[:, 1] * band)[:, None]
     if "vein" in t:  # a midrib along the long axis
         o = np.asarray(t["vein"], np.float32)[:, :, None, None]
         band = np.clip(0.5 - (np.abs(v) * rv - o[:, 0]) / px, 0.0, 1.0) * (np.abs(u) < 0.85)
-        color = color * (1.0 - o[:, 1] * band)[..., None]
-    return alpha, np.broadcast_to(color, alpha.shape + (3,)).astype(np.float32)
+        color = color * (1.0 - o[:, 1] * band)[:, None]
+    shape = (alpha.shape[0], 3) + alpha.shape[1:]
+    return alpha, np.broadcast_to(color, shape).astype(np.float32)
+
+
+def _rgb(colors) -> np.ndarray:
+    """(K, 3) colours as (K, 3, 1, 1) float32."""
+    return np.asarray(colors, np.float32)[:, :, None, None]

@@ -44,21 +44,20 @@ def voronoi(x: np.ndarray, y: np.ndarray, pts: np.ndarray, dx: float, dy: float,
     shift = 0.5 * ((row0 - 2) % 2) * dx if hexagonal else 0.0
     col0 = np.floor((X - shift) / dx).astype(np.int64) + 2
     flat_x, flat_y = pts[..., 0].ravel(), pts[..., 1].ravel()
-    cands, best_d2 = [], None
+    cands = []
+    best_d2 = np.full(X.shape, np.inf, np.float32)
+    index = np.zeros(X.shape, np.int64)
     for di in (-1, 0, 1):
         r = np.clip(row0 + di, 0, gy - 1) * gx
         for dj in (-1, 0, 1):
             idx = r + np.clip(col0 + dj, 0, gx - 1)  # (H, W) flat lattice index
-            qx, qy = flat_x[idx], flat_y[idx]
+            qx, qy = flat_x.take(idx), flat_y.take(idx)
             d2 = (qx - X) ** 2 + (qy - Y) ** 2
             cands.append((idx, qx, qy))
-            if best_d2 is None:
-                best_d2, index, p1x, p1y = d2, idx, qx, qy
-            else:
-                closer = d2 < best_d2
-                best_d2 = np.where(closer, d2, best_d2)
-                index = np.where(closer, idx, index)
-                p1x, p1y = np.where(closer, qx, p1x), np.where(closer, qy, p1y)
+            closer = d2 < best_d2
+            np.copyto(best_d2, d2, where=closer)
+            np.copyto(index, idx, where=closer)
+    p1x, p1y = flat_x.take(index), flat_y.take(index)
     # Distance to the bisector between the nearest point p1 and every other candidate q.
     dist = np.full(X.shape, np.inf, np.float32)
     for idx, qx, qy in cands:
