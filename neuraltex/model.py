@@ -121,3 +121,27 @@ def load_model(path, device: str | torch.device = "cpu") -> TextonAutoencoder:
     model.info = info
     model.config = config
     return model.to(device).eval()
+
+
+def load_segmenter(checkpoint, device: str | torch.device = "cpu"):
+    """The model as a texton segmenter for the benchmark (``scripts/eval_textons.py --method
+    model``): image (H, W, 3) float in [0, 1] -> (H, W) int labels, one per texton. Pixels are
+    labelled by the texton with the largest composited splat weight (eq. 4.13), so the label
+    map is what the decoder sees; pixels no texton reaches are 0 (background)."""
+    import numpy as np
+
+    from neuraltex.splatting import opacity_maps
+
+    model = load_model(checkpoint, device)
+
+    @torch.no_grad()
+    def segment(image: np.ndarray) -> np.ndarray:
+        x = torch.from_numpy(np.ascontiguousarray(image, dtype=np.float32)).permute(2, 0, 1)
+        H, W = x.shape[-2:]
+        textons = model.encode(x[None].to(device)).textons
+        weights = opacity_maps(textons, (H, W), cutoff=model.cutoff)[0]  # (K, H, W)
+        label = weights.argmax(0) + 1
+        label[weights.amax(0) < 0.05] = 0
+        return label.cpu().numpy().astype(np.int64)
+
+    return segment

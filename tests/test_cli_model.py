@@ -100,3 +100,15 @@ def test_large_images_are_downscaled_with_a_notice(tmp_path, ckpt, capsys):
                  "--max-side", "64"]) == 0
     assert "downscaled" in capsys.readouterr().err
     assert Image.open(out).size == (64, 32)
+
+
+def test_model_plugs_into_the_texton_benchmark(ckpt):
+    from neuraltex.baselines import get_segmenter
+    from neuraltex.data.generator import generate
+    from neuraltex.metrics import texton_scores
+
+    sample = generate(0, 0, 32)
+    labels = get_segmenter("model", checkpoint=ckpt)(sample.image)
+    assert labels.shape == (32, 32) and labels.min() >= 0
+    scores = texton_scores(labels, sample.mask)
+    assert 0 <= scores["miou"] <= 1

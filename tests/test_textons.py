@@ -194,3 +194,13 @@ def test_rotation_keeps_v_unit(textons):
     after = torch.atan2(r.v[..., 1], r.v[..., 0])
     diff = torch.remainder(after - before + ang + math.pi, 2 * math.pi) - math.pi
     assert diff.abs().max() < 1e-5
+
+
+def test_written_files_get_normal_permissions(tmp_path, textons):
+    import os
+
+    path = tmp_path / "t.json"
+    save_textons(textons, path)
+    umask = os.umask(0)
+    os.umask(umask)
+    assert path.stat().st_mode & 0o777 == 0o666 & ~umask
