@@ -66,6 +66,39 @@ def reconstruct(out: Samples, inp: Samples, m: Matches, delta: float) -> list[Pl
     return placements
 
 
+def box_iou(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Pairwise IoU of boxes (x0, y0, x1, y1). Shape: (P, 4), (Q, 4) -> (P, Q)."""
+    lo = np.maximum(a[:, None, :2], b[None, :, :2])
+    hi = np.minimum(a[:, None, 2:], b[None, :, 2:])
+    inter = np.clip(hi - lo, 0, None).prod(-1)
+    area_a = (a[:, 2:] - a[:, :2]).prod(-1)
+    area_b = (b[:, 2:] - b[:, :2]).prod(-1)
+    return inter / np.maximum(area_a[:, None] + area_b[None, :] - inter, 1e-12)
+
+
+def merge_duplicates(placements: list[Placement], boxes: np.ndarray,
+                     floor: float = 0.5) -> list[Placement]:
+    """Drop placements that overlap a better one more than any two input elements overlap.
+
+    A stopgap for v0: clusters cut at patch borders each rebuild a whole element, stacking
+    near-copies. The clustering step (issue 8) fixes the cause. ``boxes`` (E, 4) are the input
+    elements' bounding boxes.
+    """
+    if len(placements) < 2:
+        return placements
+    iou_in = box_iou(boxes, boxes)
+    np.fill_diagonal(iou_in, 0)
+    limit = max(floor, float(iou_in.max()) + 0.1)
+    shift = np.array([[p.dx, p.dy, p.dx, p.dy] for p in placements])
+    moved = boxes[[p.element for p in placements]] + shift  # (P, 4)
+    iou = box_iou(moved, moved)
+    keep: list[int] = []
+    for k in np.argsort([p.energy for p in placements], kind="stable"):
+        if all(iou[k, j] <= limit for j in keep):
+            keep.append(int(k))
+    return [placements[k] for k in sorted(keep)]
+
+
 def upsample(placements: list[Placement], inp: Samples) -> Samples:
     """Next-level output: the finer input samples of each placed element, translated.
 

@@ -10,12 +10,13 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
+import numpy as np
 import torch
 
 from cvt.assignment import add_missing, assign_positions
 from cvt.initialization import patch_init, random_init
 from cvt.neighborhood import DistanceParams, neighborhoods, pair_space
-from cvt.reconstruction import Placement, reconstruct, upsample
+from cvt.reconstruction import Placement, merge_duplicates, reconstruct, upsample
 from cvt.sampling import DEFAULT_DELTAS, DEFAULT_RADII, Level, Samples, hierarchy, sample_exemplar
 from cvt.search import Matches, NearestGrid, SearchParams, patchmatch  # noqa: F401 (re-export)
 from cvt.shape_context import chi2_table
@@ -38,6 +39,7 @@ class SynthesisConfig:
     passes: int = 2
     interior_margin: float = 0.5  # input centers keep this many radii from the border
     add_samples: bool = True
+    merge_duplicates: bool = True  # v0 stopgap until the clustering step (issue 8)
     seed: int = 0
     threads: int = 1  # torch threads; more only pays off on an idle machine with big outputs
 
@@ -99,6 +101,7 @@ def _synthesize(exemplar: Exemplar, size, cfg: SynthesisConfig, on_iteration) ->
     in_box = (vx, vy, vx + vw, vy + vh)
     out_box = (vx, vy, vx + size[0], vy + size[1])
     res = SynthesisResult([], size, [], [])
+    boxes = np.stack([e.bbox for e in exemplar.elements])  # (E, 4)
 
     t = time.perf_counter()
     res.inputs = [sample_exemplar(exemplar, lv.delta, seed=cfg.seed + k)
@@ -114,6 +117,8 @@ def _synthesize(exemplar: Exemplar, size, cfg: SynthesisConfig, on_iteration) ->
         out, m = _run_level(li, lv, inp, out, in_box, out_box, cfg, gen, res, on_iteration)
         t = time.perf_counter()
         res.placements = reconstruct(out, inp, m, lv.delta)
+        if cfg.merge_duplicates:
+            res.placements = merge_duplicates(res.placements, boxes)
         res.outputs.append(out)
         res.samples_per_level.append(len(out))
         if li + 1 < len(levels):
@@ -142,7 +147,7 @@ def _run_level(li: int, lv: Level, inp: Samples, out: Samples, in_box, out_box,
         m = patchmatch(sp, grid, field_, params, window0, gen)
         res.timings["search"] += time.perf_counter() - t
         t = time.perf_counter()
-        out = out.with_(pos=_clamp(assign_positions(out.pos, m, inp.pos), out_box))
+        out = out.with_(pos=assign_positions(out.pos, m, inp.pos))
         field_ = m.center
         if cfg.add_samples and it + 1 < cfg.iterations:
             new = add_missing(out, m, inp, in_nbr, lv.delta, lv.radius, out_box)
