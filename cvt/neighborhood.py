@@ -19,8 +19,6 @@ import numpy as np
 import torch
 from scipy.optimize import linear_sum_assignment
 
-from cvt.shape_context import chi2
-
 
 @dataclass(frozen=True)
 class DistanceParams:
@@ -148,13 +146,16 @@ def distance_reference(rel_o: np.ndarray, rel_i: np.ndarray, f_o: np.ndarray, f_
     """
     from scipy.spatial.distance import cdist
 
+    def chi2_np(a, b):  # plain eq. 3 chi2, one pair of histograms
+        den = a + b
+        return float(np.sum(np.where(den > 0, (a - b) ** 2 / np.where(den > 0, den, 1), 0)))
+
     ko = len(rel_o)
-    center = 0.5 * p.w_f * float(chi2(torch.as_tensor(fc_o), torch.as_tensor(fc_i)))
+    center = 0.5 * p.w_f * chi2_np(fc_o, fc_i)
     if ko == 0:
         return center
     pos = cdist(rel_o / p.delta, rel_i / p.delta) if len(rel_i) else np.zeros((ko, 0))
-    feat = np.array([[float(chi2(torch.as_tensor(a), torch.as_tensor(b))) for b in f_i]
-                     for a in f_o]).reshape(ko, len(rel_i))
+    feat = np.array([[chi2_np(a, b) for b in f_i] for a in f_o]).reshape(ko, len(rel_i))
     full = np.hstack([pos + 0.5 * p.w_f * feat, np.full((ko, ko), p.c_out)])  # (Ko, Ki + Ko)
     r, c = linear_sum_assignment(full)
     return center + float(full[r, c].sum())

@@ -43,6 +43,7 @@ class Matches:
 class SearchParams:
     passes: int = 2  # PatchMatch passes per search step (5 on the first step of a level)
     n_prop: int = 6  # kNN neighbors used for propagation
+    n_random: int = 2  # uniformly random input centers per pass (reach isolated elements)
     min_window: float = 1.0  # in units of delta; random search windows halve down to this
 
 
@@ -62,6 +63,7 @@ class NearestGrid:
         sub = pos[ids]
         near = torch.cat([torch.cdist(c, sub).argmin(1) for c in centers.split(4096)])
         self.cell = ids[near]  # (nx * ny,) sample id per cell, x-major
+        self.ids = ids
 
     def __call__(self, q: torch.Tensor) -> torch.Tensor:
         """Shape: (Q, 2) -> (Q,) sample ids."""
@@ -82,6 +84,9 @@ def _candidates(field, out_pos, out_nbr, in_pos, grid, window0, params, delta, g
         target = in_pos[field[t0]] + (out_pos[:, None] - out_pos[t0])  # (N, k, 2)
         near = grid(target.reshape(-1, 2)).view(n, k)
         cands.append(torch.where(t >= 0, near, field[:, None]))
+    if params.n_random > 0:
+        pick = torch.randint(len(grid.ids), (n, params.n_random), generator=gen)
+        cands.append(grid.ids[pick])
     w = window0
     while w >= params.min_window * delta:
         off = (torch.rand(n, 2, generator=gen, dtype=in_pos.dtype) * 2 - 1) * w
