@@ -77,15 +77,16 @@ def _check_args(args) -> None:
 
 
 def cmd_synthesize(args) -> int:
+    from cvt.svg import load_svg
+
+    _check_args(args)
+    ex = load_svg(args.exemplar)  # bad input fails here, before torch is even imported
+    size = _output_size(args, ex)
+
     from tqdm import tqdm
 
     from cvt.sampling import sample_exemplar
-    from cvt.svg import load_svg
     from cvt.synthesis import SynthesisConfig, result_svg, synthesize
-
-    _check_args(args)
-    ex = load_svg(args.exemplar)
-    size = _output_size(args, ex)
     cfg = SynthesisConfig(levels=args.levels, iterations=args.iterations, seed=args.seed,
                           init=args.init, threads=args.threads)
     fine = sample_exemplar(ex, cfg.deltas[-1] * ex.size)  # cheap size guard before the work
