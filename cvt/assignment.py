@@ -32,11 +32,15 @@ def _votes(out_n: int, m: Matches, in_pos: torch.Tensor):
 
 
 def assign_positions(pos: torch.Tensor, m: Matches, in_pos: torch.Tensor, mu: float = 0.05,
-                     iters: int = 80, tol: float = 1e-12) -> torch.Tensor:
+                     huber: float | None = None, iters: int = 80,
+                     tol: float = 1e-12) -> torch.Tensor:
     """Least-squares positions (eq. 18). Shape: pos (N, 2) -> (N, 2).
 
-    Solves (L + mu I) p = B^T w + mu p_old by conjugate gradients, L the Laplacian of the vote
-    edges as a sparse CSR matrix. Consistent votes (w == p_old differences) give p == p_old.
+    Solves (L + mu I) p = B^T W w + mu p_old by conjugate gradients, L the weighted Laplacian
+    of the vote edges as a sparse CSR matrix. With ``huber`` (a length, e.g. delta) a vote
+    whose residual at the current positions exceeds it is down-weighted by huber / residual
+    (one reweighting step of a Huber fit), so a few bad matches cannot drag whole clusters.
+    Consistent votes (w == p_old differences) give p == p_old.
     """
     n = pos.shape[0]
     a, b, want = _votes(n, m, in_pos)
@@ -44,16 +48,20 @@ def assign_positions(pos: torch.Tensor, m: Matches, in_pos: torch.Tensor, mu: fl
         return pos.clone()
     dt = torch.float64
     want = want.to(dt)
+    x = pos.to(dt)
+    wt = torch.ones(a.numel(), dtype=dt)
+    if huber is not None:
+        resid = ((x[a] - x[b]) - want).norm(dim=1)
+        wt = (huber / resid.clamp_min(1e-12)).clamp_max(1.0)
+    want = want * wt[:, None]
     ar = torch.arange(n)
     rows = torch.cat([a, b, a, b, ar])
     cols = torch.cat([a, b, b, a, ar])
-    ones = torch.ones(a.numel(), dtype=dt)
-    vals = torch.cat([ones, ones, -ones, -ones, torch.full((n,), mu, dtype=dt)])
+    vals = torch.cat([wt, wt, -wt, -wt, torch.full((n,), mu, dtype=dt)])
     with warnings.catch_warnings():  # "sparse CSR is beta" is not news to us
         warnings.simplefilter("ignore", UserWarning)
         lap = torch.sparse_coo_tensor(torch.stack([rows, cols]), vals, (n, n)).coalesce()
         lap = lap.to_sparse_csr()
-    x = pos.to(dt)
     rhs = (mu * x).index_add(0, a, want).index_add(0, b, -want)  # (N, 2)
     return _cg(lambda v: lap @ v, rhs, x.clone(), iters, tol).to(pos.dtype)
 

@@ -74,6 +74,24 @@ def pair_space(out_pos, out_nbr, in_pos, in_nbr, table, p: DistanceParams) -> Pa
                      tab, p)
 
 
+def _position_costs(sp: PairSpace, o: torch.Tensor, i: torch.Tensor):
+    """Eq. 3 first term for all neighbor pairs. Shape: o, i (B,) -> (B, K, K), nbrs (B, K) x2."""
+    on, inn = sp.out_nbr[o], sp.in_nbr[i]  # (B, K), -1 == sentinel (last row)
+    rel_o = (sp.out_pos[on] - sp.out_pos[o][:, None]) / sp.p.delta  # (B, K, 2)
+    rel_i = (sp.in_pos[inn] - sp.in_pos[i][:, None]) / sp.p.delta  # (B, K, 2)
+    return torch.cdist(rel_o, rel_i), on, inn
+
+
+def _add_features(sp: PairSpace, cost: torch.Tensor, on: torch.Tensor, inn: torch.Tensor):
+    """Add eq. 3's chi2 term in place and clamp at c_out. Shape: (B, K, K)."""
+    m1 = sp.table.shape[1]
+    on_s = torch.where(on >= 0, on, sp.table.shape[0] - 1)
+    in_s = torch.where(inn >= 0, inn, m1 - 1)
+    lin = (on_s * m1)[:, :, None] + in_s[:, None, :]  # (B, K, K)
+    cost += sp.table.view(-1)[lin]  # already times w_f / 2
+    return cost.clamp_(max=sp.p.c_out)
+
+
 def cost_matrices(sp: PairSpace, o: torch.Tensor, i: torch.Tensor):
     """Center costs and clamped sample-matching costs for neighborhood pairs (o[b], i[b]).
 
@@ -81,20 +99,35 @@ def cost_matrices(sp: PairSpace, o: torch.Tensor, i: torch.Tensor):
     (leaving a sample unmatched). Also returns the constant that padded rows add.
     Shape: o, i (B,) -> center (B,), cost (B, K, K), pad (B,).
     """
-    p = sp.p
-    on, inn = sp.out_nbr[o], sp.in_nbr[i]  # (B, K), -1 == sentinel (last row)
-    rel_o = (sp.out_pos[on] - sp.out_pos[o][:, None]) / p.delta  # (B, K, 2)
-    rel_i = (sp.in_pos[inn] - sp.in_pos[i][:, None]) / p.delta  # (B, K, 2)
-    cost = torch.cdist(rel_o, rel_i)  # (B, K, K), eq. 3 first term
-    m1 = sp.table.shape[1]
-    on_s = torch.where(on >= 0, on, sp.table.shape[0] - 1)
-    in_s = torch.where(inn >= 0, inn, m1 - 1)
-    lin = (on_s * m1)[:, :, None] + in_s[:, None, :]  # (B, K, K)
-    cost += sp.table.view(-1)[lin]  # eq. 3 chi2 term (already times w_f / 2)
-    cost.clamp_(max=p.c_out)
+    cost, on, inn = _position_costs(sp, o, i)
+    cost = _add_features(sp, cost, on, inn)
     center = sp.table[o, i]  # (B,) centers always matched, p_hat = 0
-    pad = p.c_out * (on < 0).sum(1)
+    pad = sp.p.c_out * (on < 0).sum(1)
     return center, cost, pad
+
+
+def pruned_lower_bounds(sp: PairSpace, o: torch.Tensor, i: torch.Tensor,
+                        bound: torch.Tensor) -> torch.Tensor:
+    """Lower bounds of eq. 2, computed in stages that stop once they reach ``bound``.
+
+    Stage 1: the center term alone; stage 2: plus position-only row minima (no feature
+    lookups); stage 3: the full row-minimum bound. A pair pruned early gets a partial bound,
+    still >= ``bound``. Shape: o, i, bound (B,) -> (B,).
+    """
+    lb = sp.table[o, i].clone()  # (B,) stage 1
+    alive = torch.nonzero(lb < bound).flatten()
+    if alive.numel() == 0:
+        return lb
+    pos, on, inn = _position_costs(sp, o[alive], i[alive])
+    pad = sp.p.c_out * (on < 0).sum(1)
+    lb2 = lb[alive] + pos.clamp(max=sp.p.c_out).min(2).values.sum(1) - pad  # stage 2
+    lb[alive] = lb2
+    keep = lb2 < bound[alive]
+    if keep.any():
+        full = alive[keep]
+        cost = _add_features(sp, pos[keep], on[keep], inn[keep])  # stage 3
+        lb[full] = sp.table[o[full], i[full]] + cost.min(2).values.sum(1) - pad[keep]
+    return lb
 
 
 def lower_bound(center: torch.Tensor, cost: torch.Tensor, pad: torch.Tensor) -> torch.Tensor:

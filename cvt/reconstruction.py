@@ -92,11 +92,11 @@ def merge_duplicates(placements: list[Placement], boxes: np.ndarray,
     shift = np.array([[p.dx, p.dy, p.dx, p.dy] for p in placements])
     moved = boxes[[p.element for p in placements]] + shift  # (P, 4)
     iou = box_iou(moved, moved)
-    keep: list[int] = []
+    kept = np.zeros(len(placements), dtype=bool)
     for k in np.argsort([p.energy for p in placements], kind="stable"):
-        if all(iou[k, j] <= limit for j in keep):
-            keep.append(int(k))
-    return [placements[k] for k in sorted(keep)]
+        if not (iou[k, kept] > limit).any():
+            kept[k] = True
+    return [p for p, k in zip(placements, kept, strict=True) if k]
 
 
 def upsample(placements: list[Placement], inp: Samples) -> Samples:

@@ -17,7 +17,7 @@ from dataclasses import dataclass
 
 import torch
 
-from cvt.neighborhood import PairSpace, cost_matrices, distance_batched, lower_bound
+from cvt.neighborhood import PairSpace, distance_batched, pruned_lower_bounds
 
 
 @dataclass
@@ -95,9 +95,9 @@ def _candidates(field, out_pos, out_nbr, in_pos, grid, window0, params, delta, g
     return torch.cat(cands, 1)
 
 
-def _lower_bounds(sp: PairSpace, o, i, chunk: int = 4096):
-    """Lower bounds of eq. 2 in chunks (bounded memory). Shape: o, i (B,) -> (B,)."""
-    parts = [lower_bound(*cost_matrices(sp, o[s : s + chunk], i[s : s + chunk]))
+def _lower_bounds(sp: PairSpace, o, i, bound, chunk: int = 4096):
+    """Lower bounds of eq. 2 in chunks (bounded memory). Shape: o, i, bound (B,) -> (B,)."""
+    parts = [pruned_lower_bounds(sp, o[s : s + chunk], i[s : s + chunk], bound[s : s + chunk])
              for s in range(0, o.shape[0], chunk)]
     return torch.cat(parts) if parts else sp.out_pos.new_zeros(0)
 
@@ -132,7 +132,7 @@ def patchmatch(sp: PairSpace, grid: NearestGrid, field: torch.Tensor, params: Se
         fresh = _fresh(cand, field)
         oo, cc = torch.nonzero(fresh, as_tuple=True)
         lb = torch.full(cand.shape, torch.inf, dtype=best.dtype)
-        lb[oo, cc] = _lower_bounds(sp, oo, cand[oo, cc])
+        lb[oo, cc] = _lower_bounds(sp, oo, cand[oo, cc], best[oo] - 1e-6)
         lb_best, j = lb.min(1)
         todo = torch.nonzero(lb_best < best - 1e-6).flatten()  # may beat the current match
         if todo.numel() == 0:

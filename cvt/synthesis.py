@@ -38,6 +38,7 @@ class SynthesisConfig:
     first_passes: int = 5  # PatchMatch passes on a level's first iteration (seed 001)
     passes: int = 2
     interior_margin: float = 0.5  # input centers keep this many radii from the border
+    huber: float = 1.0  # robust vote weighting in the assignment, in units of delta
     add_samples: bool = True
     merge_duplicates: bool = True  # v0 stopgap until the clustering step (issue 8)
     seed: int = 0
@@ -147,7 +148,7 @@ def _run_level(li: int, lv: Level, inp: Samples, out: Samples, in_box, out_box,
         m = patchmatch(sp, grid, field_, params, window0, gen)
         res.timings["search"] += time.perf_counter() - t
         t = time.perf_counter()
-        out = out.with_(pos=assign_positions(out.pos, m, inp.pos))
+        out = out.with_(pos=assign_positions(out.pos, m, inp.pos, huber=cfg.huber * lv.delta))
         field_ = m.center
         if cfg.add_samples and it + 1 < cfg.iterations:
             new = add_missing(out, m, inp, in_nbr, lv.delta, lv.radius, out_box)

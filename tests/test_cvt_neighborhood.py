@@ -11,6 +11,7 @@ from cvt.neighborhood import (
     lower_bound,
     neighborhoods,
     pair_space,
+    pruned_lower_bounds,
 )
 from cvt.shape_context import chi2_table, shape_contexts
 
@@ -65,3 +66,20 @@ def test_batched_equals_per_pair_scipy_reference(seed):
             in_feat[i[b]].numpy(), p)
         assert float(d[b]) == pytest.approx(ref, abs=1e-6)
         assert float(lb[b]) <= ref + 1e-6
+
+
+def test_pruned_bounds_are_exact_below_the_bound_and_never_exceed_the_distance():
+    out_pos, out_feat = _random_set(70, 3)
+    in_pos, in_feat = _random_set(50, 4)
+    p = DistanceParams(delta=5.0)
+    sp = pair_space(out_pos, neighborhoods(out_pos, 14.0, 12), in_pos,
+                    neighborhoods(in_pos, 14.0, 12), chi2_table(out_feat, in_feat), p)
+    o, i = torch.arange(50), torch.arange(50).flip(0)
+    full = lower_bound(*cost_matrices(sp, o, i))
+    d, _ = distance_batched(sp, o, i)
+    bound = full.median().expand(50)
+    lb = pruned_lower_bounds(sp, o, i, bound)
+    below = full < bound
+    torch.testing.assert_close(lb[below], full[below])
+    assert (lb[~below] >= bound[~below] - 1e-9).all()  # pruned: partial bound reached it
+    assert (lb <= d + 1e-9).all()
