@@ -41,6 +41,8 @@ def patch_init(inp: Samples, in_box, out_box, patch: float, gen: torch.Generator
             _, local = torch.unique(s.cluster, return_inverse=True)
             parts.append(s.with_(pos=s.pos + shift, cluster=local + next_id, source=idx))
             next_id += int(local.max()) + 1
+    if not parts:  # a sparse exemplar whose patches all came up empty
+        return random_init(inp, in_box, out_box, gen)
     out = Samples.concat(parts)
     keep = ((out.pos[:, 0] <= ox1) & (out.pos[:, 1] <= oy1))
     out = out.select(torch.nonzero(keep).flatten())

@@ -181,13 +181,15 @@ def _shapes_of(doc: bytes) -> list[Shape]:
         if not (filled or stroked):
             continue
         rings, closed = [], []
-        for sub in se.Path(e).as_subpaths():
+        path = abs(se.Path(e))  # bake any transform svgelements kept (e.g. rotated rounded rect)
+        for sub in path.as_subpaths():
             ring, c = _ring_points(se.Path(sub))
             if len(ring) >= 1 and np.isfinite(ring).all():
                 rings.append(ring)
                 closed.append(c)
         if rings:
-            sw = float(e.stroke_width or 1.0) if stroked else 0.0
+            sw = float(getattr(e, "implicit_stroke_width", None) or e.stroke_width or 1.0)
+            sw = sw if stroked else 0.0
             evenodd = e.values.get("fill-rule", "nonzero") == "evenodd"
             shapes.append(Shape(rings, closed, filled, sw, evenodd))
     return shapes

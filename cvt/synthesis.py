@@ -163,11 +163,6 @@ def _run_level(li: int, lv: Level, inp: Samples, out: Samples, in_box, out_box,
     return out, m  # no samples are added after the last search, so m covers all of out
 
 
-def _clamp(pos: torch.Tensor, box) -> torch.Tensor:
-    x0, y0, x1, y1 = box
-    return torch.stack([pos[:, 0].clamp(x0, x1), pos[:, 1].clamp(y0, y1)], 1)
-
-
 def result_svg(exemplar: Exemplar, res: SynthesisResult) -> str:
     """The synthesized pattern as SVG text: translated copies of input elements."""
     return to_svg(exemplar, [(p.element, p.dx, p.dy) for p in res.placements], res.size)

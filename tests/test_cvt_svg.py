@@ -74,3 +74,12 @@ def test_groups_are_one_element_and_use_is_expanded():
 def test_bad_input_is_refused(data, msg):
     with pytest.raises(InputError, match=msg):
         parse_svg(data)
+
+
+def test_transforms_are_applied_to_every_shape_kind():
+    svg = (b'<svg xmlns="http://www.w3.org/2000/svg" viewBox="0 0 100 100">'
+           b'<rect x="-5" y="-2" width="10" height="4" rx="1" transform="translate(50,40) '
+           b'rotate(90)"/><g transform="translate(10,0)"><circle cx="5" cy="5" r="2"/></g></svg>')
+    ex = parse_svg(svg)
+    np.testing.assert_allclose(ex.elements[0].bbox, [48, 35, 52, 45], atol=1e-6)
+    np.testing.assert_allclose(ex.elements[1].bbox, [13, 3, 17, 7], atol=1e-6)
