@@ -101,7 +101,8 @@ def missing_votes(out: Samples, m: Matches, inp: Samples, in_nbr: torch.Tensor):
 
 def add_missing(out: Samples, m: Matches, inp: Samples, in_nbr: torch.Tensor, delta: float,
                 radius: float, bounds: tuple[float, float, float, float],
-                threshold: float = 0.5) -> Samples:
+                threshold: float = 0.5, min_gap: float = 0.9,
+                new_clusters: bool = True) -> Samples:
     """Existence assignment, additions only. Returns the new samples (possibly empty).
 
     A new sample copies z, feature and element from the input sample that voted for it; its
@@ -117,19 +118,22 @@ def add_missing(out: Samples, m: Matches, inp: Samples, in_nbr: torch.Tensor, de
     cell = torch.floor(p / delta).long()  # (V, 2) votes landing in one cell are one place
     key = (cell[:, 0] - cell[:, 0].min()) * (int(cell[:, 1].max() - cell[:, 1].min()) + 1) + (
         cell[:, 1] - cell[:, 1].min())
-    uniq, inv, counts = torch.unique(key, return_inverse=True, return_counts=True)
-    place = torch.zeros(len(uniq), 2, dtype=p.dtype).index_add_(0, inv, p) / counts[:, None]
+    uniq, inv, n_votes = torch.unique(key, return_inverse=True, return_counts=True)
+    place = torch.zeros(len(uniq), 2, dtype=p.dtype).index_add_(0, inv, p) / n_votes[:, None]
+    # eq. 16 counts neighborhoods, so a neighborhood voting twice for one place counts once
+    voter = torch.unique(inv * len(out) + s_o)  # distinct (place, voting center) pairs
+    counts = torch.bincount(voter // len(out), minlength=len(uniq))
     # Overlapping output neighborhoods: output samples within r of the place (eq. 16 denominator).
     near = torch.cdist(place, out.pos)  # (P, N)
     overlap = (near <= radius).sum(1).clamp_min(1)
     xi = counts / overlap
-    keep = (xi > threshold) & (near.min(1).values >= 0.75 * delta)
+    keep = (xi > threshold) & (near.min(1).values >= min_gap * delta)
     keep_idx = torch.nonzero(keep).flatten()
     keep_idx = keep_idx[torch.argsort(xi[keep_idx], descending=True, stable=True)]
     chosen, chosen_pos = [], []
     for k in keep_idx.tolist():  # greedy: new samples keep delta from each other
         q = place[k]
-        if chosen_pos and torch.cdist(q[None], torch.stack(chosen_pos)).min() < 0.75 * delta:
+        if chosen_pos and torch.cdist(q[None], torch.stack(chosen_pos)).min() < min_gap * delta:
             continue
         chosen.append(k)
         chosen_pos.append(q)
@@ -138,15 +142,23 @@ def add_missing(out: Samples, m: Matches, inp: Samples, in_nbr: torch.Tensor, de
     first_vote = torch.full((len(uniq),), -1, dtype=torch.long)
     first_vote.scatter_reduce_(0, inv, torch.arange(len(inv)), reduce="amin", include_self=False)
     v = first_vote[torch.tensor(chosen)]  # (A,) one representative vote per new sample
-    cluster = _new_cluster_ids(out, m, inp, s_i[v], s_o[v])
+    cluster = _new_cluster_ids(out, m, inp, s_i[v], s_o[v], 2 * delta)
+    if not new_clusters:  # only complete elements that are already (partly) there
+        ok = cluster <= out.cluster.max()
+        v, cluster = v[ok], cluster[ok]
+        chosen = [c for c, k in zip(chosen, ok.tolist(), strict=True) if k]
+        chosen_pos = [q for q, k in zip(chosen_pos, ok.tolist(), strict=True) if k]
+        if not chosen:
+            return out.select(torch.zeros(0, dtype=torch.long))
     return Samples(torch.stack(chosen_pos), cluster, inp.z[s_i[v]],
                    xi[torch.tensor(chosen)].to(p.dtype), inp.feat[s_i[v]], inp.element[s_i[v]],
                    s_i[v])
 
 
-def _new_cluster_ids(out: Samples, m: Matches, inp: Samples, s_i, s_o) -> torch.Tensor:
+def _new_cluster_ids(out: Samples, m: Matches, inp: Samples, s_i, s_o, cell: float):
     """Cluster of each new sample: join the output cluster its neighborhood mapped to the same
-    input cluster, else a fresh id. Shape: (A,), (A,) -> (A,)."""
+    input cluster, else a fresh id shared by the new samples of the same input cluster placed
+    with (about) the same translation, i.e. the same missing element. Shape: (A,) -> (A,)."""
     want = inp.cluster[s_i]  # (A,)
     mt = m.matched[s_o]  # (A, K)
     mc = torch.where(mt >= 0, inp.cluster[mt.clamp_min(0)], -1)  # (A, K)
@@ -158,5 +170,8 @@ def _new_cluster_ids(out: Samples, m: Matches, inp: Samples, s_i, s_o) -> torch.
     center_same = inp.cluster[m.center[s_o]] == want
     joined = torch.where(center_same, out.cluster[s_o], joined)
     has = has | center_same
-    fresh = int(out.cluster.max()) + 1 + torch.arange(len(s_i))
+    shift = out.pos[s_o] - inp.pos[m.center[s_o]]  # (A, 2) where the input pattern sits
+    key = torch.cat([want[:, None], torch.round(shift / cell).long()], 1)  # (A, 3)
+    _, group = torch.unique(key, dim=0, return_inverse=True)
+    fresh = int(out.cluster.max()) + 1 + group
     return torch.where(has, joined, fresh)

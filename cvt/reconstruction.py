@@ -77,7 +77,7 @@ def box_iou(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 
 def merge_duplicates(placements: list[Placement], boxes: np.ndarray,
-                     floor: float = 0.5) -> list[Placement]:
+                     floor: float = 0.15) -> list[Placement]:
     """Drop placements that overlap a better one more than any two input elements overlap.
 
     A stopgap for v0: clusters cut at patch borders each rebuild a whole element, stacking

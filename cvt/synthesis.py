@@ -40,6 +40,7 @@ class SynthesisConfig:
     interior_margin: float = 0.5  # input centers keep this many radii from the border
     huber: float = 1.0  # robust vote weighting in the assignment, in units of delta
     add_samples: bool = True
+    add_clusters: bool = True  # may existence start new elements (False: only complete ones)
     merge_duplicates: bool = True  # v0 stopgap until the clustering step (issue 8)
     seed: int = 0
     threads: int = 1  # torch threads; more only pays off on an idle machine with big outputs
@@ -151,7 +152,8 @@ def _run_level(li: int, lv: Level, inp: Samples, out: Samples, in_box, out_box,
         out = out.with_(pos=assign_positions(out.pos, m, inp.pos, huber=cfg.huber * lv.delta))
         field_ = m.center
         if cfg.add_samples and it + 1 < cfg.iterations:
-            new = add_missing(out, m, inp, in_nbr, lv.delta, lv.radius, out_box)
+            new = add_missing(out, m, inp, in_nbr, lv.delta, lv.radius, out_box,
+                              new_clusters=cfg.add_clusters)
             if len(new):
                 out = out.cat(new)
                 table = torch.cat([table, chi2_table(new.feat, inp.feat)])
