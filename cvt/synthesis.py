@@ -18,7 +18,7 @@ from cvt.initialization import patch_init, random_init
 from cvt.neighborhood import DistanceParams, neighborhoods, pair_space
 from cvt.reconstruction import Placement, merge_duplicates, reconstruct, upsample
 from cvt.sampling import DEFAULT_DELTAS, DEFAULT_RADII, Level, Samples, hierarchy, sample_exemplar
-from cvt.search import Matches, NearestGrid, SearchParams, patchmatch  # noqa: F401 (re-export)
+from cvt.search import Matches, NearestGrid, SearchParams, patchmatch
 from cvt.shape_context import chi2_table
 from cvt.svg import Exemplar, to_svg
 
@@ -63,6 +63,7 @@ class SynthesisResult:
     size: tuple[float, float]
     inputs: list[Samples]
     outputs: list[Samples]  # final samples per level
+    matches: list[Matches] = field(default_factory=list)  # last search of each level
     energies: list[tuple[int, int, float]] = field(default_factory=list)
     timings: dict[str, float] = field(default_factory=lambda: dict.fromkeys(STEPS, 0.0))
     samples_per_level: list[int] = field(default_factory=list)
@@ -122,6 +123,7 @@ def _synthesize(exemplar: Exemplar, size, cfg: SynthesisConfig, on_iteration) ->
         if cfg.merge_duplicates:
             res.placements = merge_duplicates(res.placements, boxes)
         res.outputs.append(out)
+        res.matches.append(m)
         res.samples_per_level.append(len(out))
         if li + 1 < len(levels):
             out = upsample(res.placements, res.inputs[li + 1])
