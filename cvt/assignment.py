@@ -85,14 +85,17 @@ def _cg(apply, rhs: torch.Tensor, x: torch.Tensor, iters: int, tol: float) -> to
     return x
 
 
-def missing_votes(out: Samples, m: Matches, inp: Samples, in_nbr: torch.Tensor):
-    """Positions and sources of input neighbors left unmatched in matched neighborhoods.
+def missing_votes(out: Samples, m: Matches, inp: Samples, in_nbr: torch.Tensor,
+                  radius: float = float("inf")):
+    """Positions and sources of input neighbors (within ``radius`` of their center) left
+    unmatched in matched neighborhoods.
 
     Shape: -> pos (V, 2), input sample (V,), voting output center (V,).
     """
     nb = in_nbr[m.center]  # (N, K) input neighborhood of each match
     hit = (nb[:, :, None] == m.matched[:, None, :]).any(2)  # (N, K) matched by someone
-    miss = (nb >= 0) & ~hit
+    near = (inp.pos[nb.clamp_min(0)] - inp.pos[m.center][:, None]).norm(dim=-1) <= radius
+    miss = (nb >= 0) & ~hit & near
     s_o = torch.arange(len(out))[:, None].expand_as(nb)[miss]  # (V,)
     s_i = nb[miss]  # (V,)
     p = out.pos[s_o] + (inp.pos[s_i] - inp.pos[m.center[s_o]])  # (V, 2)
@@ -109,7 +112,7 @@ def add_missing(out: Samples, m: Matches, inp: Samples, in_nbr: torch.Tensor, de
     cluster is the output cluster that the same neighborhood matched to that input cluster, or
     a fresh id.
     """
-    p, s_i, s_o = missing_votes(out, m, inp, in_nbr)
+    p, s_i, s_o = missing_votes(out, m, inp, in_nbr, radius)
     x0, y0, x1, y1 = bounds
     inside = (p[:, 0] >= x0) & (p[:, 0] <= x1) & (p[:, 1] >= y0) & (p[:, 1] <= y1)
     p, s_i, s_o = p[inside], s_i[inside], s_o[inside]

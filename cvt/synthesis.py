@@ -34,6 +34,11 @@ class SynthesisConfig:
     w_f: float = 10.0
     c_out: float = 4.0
     k_max: int = 24  # neighborhood size cap
+    # Input neighborhoods reach a little farther than output ones, so an output sample near
+    # the rim can match its true partner just outside r; with equal radii every rim match pulls
+    # inwards and the pattern contracts over the iterations.
+    in_margin: float = 1.5  # extra input radius, in units of delta
+    k_in_extra: int = 8
     init: str = "patch"  # or "random"
     first_passes: int = 5  # PatchMatch passes on a level's first iteration (seed 001)
     passes: int = 2
@@ -135,7 +140,8 @@ def _run_level(li: int, lv: Level, inp: Samples, out: Samples, in_box, out_box,
                cfg: SynthesisConfig, gen, res: SynthesisResult, on_iteration):
     t = time.perf_counter()
     dist = DistanceParams(lv.delta, cfg.w_f, cfg.c_out)
-    in_nbr = neighborhoods(inp.pos, lv.radius, cfg.k_max)
+    in_nbr = neighborhoods(inp.pos, lv.radius + cfg.in_margin * lv.delta,
+                           cfg.k_max + cfg.k_in_extra)
     valid = _valid_centers(inp, in_box, cfg.interior_margin * lv.radius)
     grid = NearestGrid(inp.pos, valid, in_box, lv.delta / 3)
     table = chi2_table(out.feat, inp.feat)  # (N_out, N_in), features fixed within a level
