@@ -45,7 +45,10 @@ class SynthesisConfig:
     interior_margin: float = 0.5  # input centers keep this many radii from the border
     huber: float = 1.0  # robust vote weighting in the assignment, in units of delta
     add_samples: bool = True
-    add_clusters: bool = True  # may existence start new elements (False: only complete ones)
+    # May existence start new clusters? Without the clustering step (issue 8) to merge them,
+    # fresh one- or two-sample clusters each rebuild a whole element and over-fill the output
+    # (about 1.3x the expected element count), so by default it only completes clusters.
+    add_clusters: bool = False
     merge_duplicates: bool = True  # v0 stopgap until the clustering step (issue 8)
     seed: int = 0
     threads: int = 1  # torch threads; more only pays off on an idle machine with big outputs
