@@ -230,9 +230,11 @@ def parse_svg(data: bytes) -> Exemplar:
             candidates.append(child)
     if len(candidates) > MAX_ELEMENTS:
         raise InputError(f"SVG has more than {MAX_ELEMENTS} top-level elements")
-    hidden = defs + [c for c in candidates if c.get("id")]
+    by_id = _ids(defs + candidates)
+    styles = [n for d in defs for n in d.iter() if _local(n.tag) == "style"]
     elements = []
     for node in candidates:
+        hidden = styles + [by_id[i] for i in _reference_closure(node, by_id)]
         try:
             shapes = _shapes_of(_mini_doc(root, hidden, node))
         except (ValueError, TypeError, IndexError, AttributeError, ZeroDivisionError) as exc:
@@ -245,17 +247,40 @@ def parse_svg(data: bytes) -> Exemplar:
         raise InputError("SVG has no drawable elements")
     root_attrs = {k: v for k, v in root.attrib.items() if _local(k) not in _ROOT_GEOMETRY_ATTRS}
     # Referenced top-level elements must stay resolvable in the output: keep them as defs too.
-    referenced = [c for c in candidates if c.get("id") and _is_referenced(root, c.get("id"))]
+    used = set().union(*(_refs(e.node) for e in elements)) if elements else set()
+    referenced = [c for c in candidates if c.get("id") in used]
     return Exemplar(elements, box, root_attrs, defs + referenced, unit)
 
 
-def _is_referenced(root: ET.Element, ident: str) -> bool:
-    needle = f"#{ident}"
-    for n in root.iter():
-        for v in n.attrib.values():
-            if needle in v:
-                return True
-    return False
+_REF = re.compile(r"#([^\s)'\"#]+)")
+
+
+def _refs(node: ET.Element) -> set[str]:
+    """Ids referenced (href="#id", url(#id)) anywhere inside ``node``."""
+    return {m for n in node.iter() for v in n.attrib.values() if "#" in v
+            for m in _REF.findall(v)}
+
+
+def _ids(nodes: list[ET.Element]) -> dict[str, ET.Element]:
+    """Id -> node for the given nodes and everything inside them (first one wins)."""
+    out: dict[str, ET.Element] = {}
+    for top in nodes:
+        for n in top.iter():
+            if n.get("id") and n.get("id") not in out:
+                out[n.get("id")] = n
+    return out
+
+
+def _reference_closure(node: ET.Element, by_id: dict[str, ET.Element]) -> list[str]:
+    """Ids ``node`` needs, directly or through what those ids reference in turn."""
+    todo, seen = list(_refs(node)), set()
+    while todo:
+        i = todo.pop()
+        if i in seen or i not in by_id:
+            continue
+        seen.add(i)
+        todo.extend(_refs(by_id[i]))
+    return sorted(seen)
 
 
 def load_svg(path) -> Exemplar:
