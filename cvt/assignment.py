@@ -105,7 +105,7 @@ def missing_votes(out: Samples, m: Matches, inp: Samples, in_nbr: torch.Tensor,
 def add_missing(out: Samples, m: Matches, inp: Samples, in_nbr: torch.Tensor, delta: float,
                 radius: float, bounds: tuple[float, float, float, float],
                 threshold: float = 0.5, min_gap: float = 0.9,
-                new_clusters: bool = True) -> Samples:
+                min_new: float = 0.5) -> Samples:
     """Existence assignment, additions only. Returns the new samples (possibly empty).
 
     A new sample copies z, feature and element from the input sample that voted for it; its
@@ -146,8 +146,15 @@ def add_missing(out: Samples, m: Matches, inp: Samples, in_nbr: torch.Tensor, de
     first_vote.scatter_reduce_(0, inv, torch.arange(len(inv)), reduce="amin", include_self=False)
     v = first_vote[torch.tensor(chosen)]  # (A,) one representative vote per new sample
     cluster = _new_cluster_ids(out, m, inp, s_i[v], s_o[v], 2 * delta)
-    if not new_clusters:  # only complete elements that are already (partly) there
-        ok = cluster <= out.cluster.max()
+    # A fresh cluster must bring at least ``min_new`` of its input element's samples at once:
+    # stray one- or two-sample clusters would each rebuild a whole element (no clustering
+    # step yet to merge them). ``min_new`` >= 1 disables fresh clusters.
+    fresh = cluster > out.cluster.max()
+    if fresh.any():
+        _, grp, size = torch.unique(cluster[fresh], return_inverse=True, return_counts=True)
+        full = torch.bincount(inp.cluster)[inp.cluster[s_i[v[fresh]]]]  # (F,) element sizes
+        ok = torch.ones_like(fresh)
+        ok[fresh] = size[grp] >= min_new * full
         v, cluster = v[ok], cluster[ok]
         chosen = [c for c, k in zip(chosen, ok.tolist(), strict=True) if k]
         chosen_pos = [q for q, k in zip(chosen_pos, ok.tolist(), strict=True) if k]

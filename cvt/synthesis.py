@@ -45,10 +45,11 @@ class SynthesisConfig:
     interior_margin: float = 0.5  # input centers keep this many radii from the border
     huber: float = 1.0  # robust vote weighting in the assignment, in units of delta
     add_samples: bool = True
-    # May existence start new clusters? Without the clustering step (issue 8) to merge them,
-    # fresh one- or two-sample clusters each rebuild a whole element and over-fill the output
-    # (about 1.3x the expected element count), so by default it only completes clusters.
-    add_clusters: bool = False
+    # Existence may start a new cluster only with this share of its element's samples at once.
+    # Without the clustering step (issue 8) to merge them, fresh one- or two-sample clusters
+    # each rebuild a whole element and over-fill the output (0: ~1.3x the expected element
+    # count); 1.0 only completes existing clusters, which leaves holes.
+    new_cluster_share: float = 0.5
     merge_duplicates: bool = True  # v0 stopgap until the clustering step (issue 8)
     seed: int = 0
     threads: int = 1  # torch threads; more only pays off on an idle machine with big outputs
@@ -164,7 +165,7 @@ def _run_level(li: int, lv: Level, inp: Samples, out: Samples, in_box, out_box,
         field_ = m.center
         if cfg.add_samples and it + 1 < cfg.iterations:
             new = add_missing(out, m, inp, in_nbr, lv.delta, lv.radius, out_box,
-                              new_clusters=cfg.add_clusters)
+                              min_new=cfg.new_cluster_share)
             if len(new):
                 out = out.cat(new)
                 table = torch.cat([table, chi2_table(new.feat, inp.feat)])
