@@ -133,13 +133,9 @@ def add_missing(out: Samples, m: Matches, inp: Samples, in_nbr: torch.Tensor, de
     keep = (xi > threshold) & (near.min(1).values >= min_gap * delta)
     keep_idx = torch.nonzero(keep).flatten()
     keep_idx = keep_idx[torch.argsort(xi[keep_idx], descending=True, stable=True)]
-    chosen, chosen_pos = [], []
-    for k in keep_idx.tolist():  # greedy: new samples keep delta from each other
-        q = place[k]
-        if chosen_pos and torch.cdist(q[None], torch.stack(chosen_pos)).min() < min_gap * delta:
-            continue
-        chosen.append(k)
-        chosen_pos.append(q)
+    chosen = _spaced(place[keep_idx].tolist(), min_gap * delta)
+    chosen = [int(keep_idx[c]) for c in chosen]
+    chosen_pos = [place[c] for c in chosen]
     if not chosen:
         return out.select(torch.zeros(0, dtype=torch.long))
     first_vote = torch.full((len(uniq),), -1, dtype=torch.long)
@@ -163,6 +159,21 @@ def add_missing(out: Samples, m: Matches, inp: Samples, in_nbr: torch.Tensor, de
     return Samples(torch.stack(chosen_pos), cluster, inp.z[s_i[v]],
                    xi[torch.tensor(chosen)].to(p.dtype), inp.feat[s_i[v]], inp.element[s_i[v]],
                    s_i[v])
+
+
+def _spaced(points: list[list[float]], gap: float) -> list[int]:
+    """Greedy in order: indices of points kept at least ``gap`` apart (grid hash, cell = gap)."""
+    grid: dict[tuple[int, int], list[tuple[float, float]]] = {}
+    kept = []
+    for k, (x, y) in enumerate(points):
+        ci, cj = int(x // gap), int(y // gap)
+        near = (q for di in (-1, 0, 1) for dj in (-1, 0, 1)
+                for q in grid.get((ci + di, cj + dj), ()))
+        if any((qx - x) ** 2 + (qy - y) ** 2 < gap * gap for qx, qy in near):
+            continue
+        grid.setdefault((ci, cj), []).append((x, y))
+        kept.append(k)
+    return kept
 
 
 def _new_cluster_ids(out: Samples, m: Matches, inp: Samples, s_i, s_o, cell: float):
