@@ -61,6 +61,9 @@ def _output_size(args, exemplar) -> tuple[float, float]:
         raise InputError("give the output size: --width W --height H, or --scale S")
     if not (math.isfinite(w) and math.isfinite(h)) or w <= 0 or h <= 0:
         raise InputError(f"output size must be positive, got {w:g} x {h:g}")
+    small = exemplar.size / 20  # the coarsest sampling distance
+    if w < small or h < small:
+        raise InputError(f"output size {w:g} x {h:g} is too small (minimum {small:g} per side)")
     if w / vw > MAX_SIDE_RATIO or h / vh > MAX_SIDE_RATIO:
         raise InputError(f"output size {w:g} x {h:g} is more than {MAX_SIDE_RATIO:g}x the "
                          f"exemplar ({vw:g} x {vh:g})")

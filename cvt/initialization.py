@@ -46,6 +46,8 @@ def patch_init(inp: Samples, in_box, out_box, patch: float, gen: torch.Generator
     out = Samples.concat(parts)
     keep = ((out.pos[:, 0] <= ox1) & (out.pos[:, 1] <= oy1))
     out = out.select(torch.nonzero(keep).flatten())
+    if len(out) == 0:  # output smaller than one patch's first samples
+        return random_init(inp, in_box, out_box, gen)
     return _refresh_cut_features(out, inp)
 
 

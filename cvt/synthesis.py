@@ -134,8 +134,10 @@ def _synthesize(exemplar: Exemplar, size, cfg: SynthesisConfig, on_iteration) ->
         res.outputs.append(out)
         res.matches.append(m)
         res.samples_per_level.append(len(out))
-        if li + 1 < len(levels):
+        if li + 1 < len(levels) and res.placements:
             out = upsample(res.placements, res.inputs[li + 1])
+        elif li + 1 < len(levels):
+            break  # nothing left to refine
         res.timings["reconstruction"] += time.perf_counter() - t
     return res
 

@@ -64,10 +64,18 @@ def test_bad_svg_exits_2_with_one_line(tmp_path, case, capsys):
     ["--width", "nan", "--height", "10"],
     ["--width", "100"],
     ["--scale", "2", "--levels", "9"],
+    ["--width", "1", "--height", "1"],
 ])
 def test_bad_sizes_exit_2(tmp_path, args, capsys):
     assert main(["synthesize", str(STARS), "-o", str(tmp_path / "o.svg"), *args]) == 2
     assert capsys.readouterr().err.count("\n") == 1
+
+
+def test_small_outputs_still_work():
+    from cvt import load_svg, synthesize
+
+    res = synthesize(load_svg(STARS), (3.0, 3.0))  # below one patch: random init, 1 level on
+    assert len(res.placements) >= 1
 
 
 def test_missing_file_exits_2(tmp_path, capsys):
