@@ -70,6 +70,9 @@ def pair_space(out_pos, out_nbr, in_pos, in_nbr, table, p: DistanceParams) -> Pa
     far = out_pos.new_tensor([[_FAR, _FAR]])
     tab = torch.zeros(table.shape[0] + 1, table.shape[1] + 1, dtype=table.dtype)
     tab[:-1, :-1] = 0.5 * p.w_f * table
+    short = out_nbr.shape[1] - in_nbr.shape[1]
+    if short > 0:  # every output row needs a column: pad with (outlier) sentinel columns
+        in_nbr = torch.cat([in_nbr, in_nbr.new_full((in_nbr.shape[0], short), -1)], 1)
     return PairSpace(torch.cat([out_pos, far]), out_nbr, torch.cat([in_pos, -far]), in_nbr,
                      tab, p)
 

@@ -44,13 +44,13 @@ def test_identical_neighborhoods_have_distance_zero():
     assert torch.equal(matched, nb)  # every neighbor matched to itself
 
 
-@pytest.mark.parametrize("seed", [0, 1, 2])
-def test_batched_equals_per_pair_scipy_reference(seed):
+@pytest.mark.parametrize("seed, k_in", [(0, 16), (1, 16), (2, 16), (3, 5)])
+def test_batched_equals_per_pair_scipy_reference(seed, k_in):
     out_pos, out_feat = _random_set(70, 10 + seed)
     in_pos, in_feat = _random_set(50, 20 + seed)
     p = DistanceParams(delta=5.0, w_f=10.0, c_out=4.0)
-    # input neighborhoods reach farther and hold more samples (rectangular cost matrices)
-    out_nb, in_nb = neighborhoods(out_pos, 14.0, 12), neighborhoods(in_pos, 17.0, 16)
+    # input neighborhoods reach farther (rectangular cost matrices), or hold fewer samples
+    out_nb, in_nb = neighborhoods(out_pos, 14.0, 12), neighborhoods(in_pos, 17.0, k_in)
     sp = pair_space(out_pos, out_nb, in_pos, in_nb, chi2_table(out_feat, in_feat), p)
     g = torch.Generator().manual_seed(seed)
     o = torch.randint(0, 70, (200,), generator=g)

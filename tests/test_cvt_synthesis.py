@@ -80,3 +80,12 @@ def test_random_init_also_works():
     cfg = SynthesisConfig(levels=1, iterations=2, init="random")
     res = synthesize(ex, (220.0, 220.0), cfg)
     assert len(res.placements) > 5
+
+
+def test_tiny_exemplar_without_namespace():
+    svg = (b'<svg viewBox="0 0 100 100"><circle cx="20" cy="20" r="5" fill="red"/>'
+           b'<rect x="50" y="50" width="10" height="6"/><circle cx="70" cy="20" r="5"/></svg>')
+    ex = parse_svg(svg)
+    res = synthesize(ex, (150.0, 150.0), SynthesisConfig(iterations=2))
+    assert len(res.placements) >= 3
+    assert len(parse_svg(result_svg(ex, res).encode()).elements) == len(res.placements)
