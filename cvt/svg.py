@@ -150,6 +150,11 @@ def _viewbox(root: ET.Element) -> tuple[tuple[float, float, float, float], tuple
     return box, unit  # type: ignore[return-value]
 
 
+def _hidden(node: ET.Element) -> bool:
+    style = node.get("style", "").replace(" ", "")
+    return node.get("display") == "none" or "display:none" in style
+
+
 def _ring_points(sub: se.Path) -> tuple[np.ndarray, bool]:
     pts: list[np.ndarray] = []
     closed = False
@@ -174,7 +179,9 @@ def _shapes_of(doc: bytes) -> list[Shape]:
     svg = se.SVG.parse(io.BytesIO(doc))
     shapes = []
     for e in svg.elements():
-        if not isinstance(e, se.Shape) or e.values.get("visibility") == "hidden":
+        if not isinstance(e, se.Shape) or e.values.get("visibility") in ("hidden", "collapse"):
+            continue
+        if e.values.get("display") == "none":
             continue
         filled = e.fill is not None and e.fill.value is not None
         stroked = e.stroke is not None and e.stroke.value is not None
@@ -187,7 +194,8 @@ def _shapes_of(doc: bytes) -> list[Shape]:
             if len(ring) >= 1 and np.isfinite(ring).all():
                 rings.append(ring)
                 closed.append(c)
-        if rings:
+        extent = max((float(np.ptp(r, axis=0).max()) for r in rings), default=0.0)
+        if rings and (extent > 0 or stroked):
             sw = float(getattr(e, "implicit_stroke_width", None) or e.stroke_width or 1.0)
             sw = sw if stroked else 0.0
             evenodd = e.values.get("fill-rule", "nonzero") == "evenodd"
@@ -226,7 +234,7 @@ def parse_svg(data: bytes) -> Exemplar:
             defs.append(child)
         elif tag in _UNSUPPORTED_TAGS:
             unsupported += 1
-        elif tag not in _SKIP_TAGS:
+        elif tag not in _SKIP_TAGS and not _hidden(child):
             candidates.append(child)
     if len(candidates) > MAX_ELEMENTS:
         raise InputError(f"SVG has more than {MAX_ELEMENTS} top-level elements")

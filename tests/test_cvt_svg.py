@@ -83,3 +83,12 @@ def test_transforms_are_applied_to_every_shape_kind():
     ex = parse_svg(svg)
     np.testing.assert_allclose(ex.elements[0].bbox, [48, 35, 52, 45], atol=1e-6)
     np.testing.assert_allclose(ex.elements[1].bbox, [13, 3, 17, 7], atol=1e-6)
+
+
+def test_invisible_and_degenerate_nodes_are_not_elements():
+    svg = (b'<svg xmlns="http://www.w3.org/2000/svg" viewBox="0 0 50 50">'
+           b'<circle cx="10" cy="10" r="3" display="none"/><g style="display: none"><rect '
+           b'width="4" height="4"/></g><circle cx="5" cy="5" r="0"/><path d="M0 0"/>'
+           b'<rect width="5" height="5" transform="matrix(0 0 0 0 0 0)"/>'
+           b'<circle cx="30" cy="30" r="3"/></svg>')
+    assert len(parse_svg(svg).elements) == 1
