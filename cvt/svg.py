@@ -219,9 +219,12 @@ def parse_svg(data: bytes) -> Exemplar:
     """Parse untrusted SVG bytes into an :class:`Exemplar` (raises InputError on bad input)."""
     _check_safe(data)
     root, namespaces = _parse_xml(data)
-    for prefix, uri in namespaces.items():
-        if prefix not in ("ns0",) and not prefix.startswith("ns"):
-            ET.register_namespace(prefix, uri)
+    for prefix, uri in namespaces.items():  # keep the file's prefixes (inkscape:, sodipodi:)
+        if prefix and not re.fullmatch(r"ns\d+", prefix) and uri not in (SVG_NS, XLINK_NS):
+            try:
+                ET.register_namespace(prefix, uri)
+            except ValueError:
+                pass
     ET.register_namespace("", SVG_NS)
     ET.register_namespace("xlink", XLINK_NS)
     box, unit = _viewbox(root)
