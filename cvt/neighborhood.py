@@ -4,8 +4,11 @@ A neighborhood n(s) is the set of samples within radius r of a center s, stored 
 index tensor (N, K) with -1 for empty slots, nearest first. The distance between an output and
 an input neighborhood is an optimal one-to-one matching (Hungarian) of their samples with the
 centers matched to each other. Following seed 001 sec. 4.2.3, an output sample may stay
-unmatched (an outlier) at cost ``c_out``; then the K x (K + K) problem with dummy columns
-equals the square K x K problem on ``min(cost, c_out)``, which is what we batch.
+unmatched (an outlier) at cost ``c_out``; then the Ko x (Ki + Ko) problem with dummy columns
+equals the Ko x Ki problem on ``min(cost, c_out)`` (Ki >= Ko), which is what we batch: cost
+matrices for many pairs are built at once in torch, and each is solved exactly (Hungarian,
+scipy), tested against :func:`distance_reference`. Input neighborhoods may be wider than
+output ones (see ``SynthesisConfig.in_margin``).
 
 Positions are compared in units of the level's sampling distance delta, so ``w_f = 10`` and
 ``c_out`` mean the same at every level and exemplar size.
