@@ -15,7 +15,7 @@ import torch
 
 from cvt.assignment import add_missing, assign_positions
 from cvt.initialization import patch_init, random_init
-from cvt.neighborhood import DistanceParams, neighborhoods, pair_space
+from cvt.neighborhood import DistanceParams, distance_batched, neighborhoods, pair_space
 from cvt.reconstruction import Placement, merge_duplicates, reconstruct, upsample
 from cvt.sampling import DEFAULT_DELTAS, DEFAULT_RADII, Level, Samples, hierarchy, sample_exemplar
 from cvt.search import Matches, NearestGrid, SearchParams, patchmatch
@@ -44,6 +44,9 @@ class SynthesisConfig:
     passes: int = 2
     interior_margin: float = 0.5  # input centers keep this many radii from the border
     huber: float = 1.0  # robust vote weighting in the assignment, in units of delta
+    # Shrink or skip assignment steps that would raise eq. 4 (monotone energy, ~2x assignment
+    # time; off by default: results look the same, see README).
+    backtrack: bool = False
     add_samples: bool = True
     # Existence may start a new cluster only with this share of its element's samples at once.
     # Without the clustering step (issue 8) to merge them, fresh one- or two-sample clusters
@@ -163,7 +166,10 @@ def _run_level(li: int, lv: Level, inp: Samples, out: Samples, in_box, out_box,
         m = patchmatch(sp, grid, field_, params, window0, gen)
         res.timings["search"] += time.perf_counter() - t
         t = time.perf_counter()
-        out = out.with_(pos=assign_positions(out.pos, m, inp.pos, huber=cfg.huber * lv.delta))
+        new_pos = assign_positions(out.pos, m, inp.pos, huber=cfg.huber * lv.delta)
+        if cfg.backtrack:
+            new_pos = _backtrack(out.pos, new_pos, m, inp, in_nbr, table, dist, lv, cfg)
+        out = out.with_(pos=new_pos)
         field_ = m.center
         if cfg.add_samples and it + 1 < cfg.iterations:
             new = add_missing(out, m, inp, in_nbr, lv.delta, lv.radius, out_box,
@@ -177,6 +183,26 @@ def _run_level(li: int, lv: Level, inp: Samples, out: Samples, in_box, out_box,
         if on_iteration is not None:
             on_iteration(LevelState(li, it, out, m, m.energy))
     return out, m  # no samples are added after the last search, so m covers all of out
+
+
+def _energy_at(pos, m: Matches, inp: Samples, in_nbr, table, dist, lv: Level, cfg) -> float:
+    """Eq. 4 (mean) at positions ``pos`` for the fixed field ``m.center``."""
+    sp = pair_space(pos, neighborhoods(pos, lv.radius, cfg.k_max), inp.pos, in_nbr, table, dist)
+    d, _ = distance_batched(sp, torch.arange(pos.shape[0]), m.center)
+    return float(d.mean())
+
+
+def _backtrack(old, new, m: Matches, inp, in_nbr, table, dist, lv, cfg) -> torch.Tensor:
+    """Take the least-squares step, or half of it, or none: whichever keeps eq. 4 from rising.
+
+    Least squares fits squared vote residuals of fixed matchings, not eq. 4 itself (robust,
+    re-matched, with features), so a full step can raise the energy, mostly at coarse levels.
+    """
+    for step in (1.0, 0.5):
+        pos = old + step * (new - old)
+        if _energy_at(pos, m, inp, in_nbr, table, dist, lv, cfg) <= m.energy + 1e-9:
+            return pos
+    return old
 
 
 def result_svg(exemplar: Exemplar, res: SynthesisResult) -> str:

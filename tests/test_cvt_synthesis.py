@@ -89,3 +89,12 @@ def test_tiny_exemplar_without_namespace():
     res = synthesize(ex, (150.0, 150.0), SynthesisConfig(iterations=2))
     assert len(res.placements) >= 3
     assert len(parse_svg(result_svg(ex, res).encode()).elements) == len(res.placements)
+
+
+def test_backtracking_keeps_the_energy_from_rising_within_a_level():
+    ex = load_svg(EXEMPLARS / "flowers.svg")
+    states = []
+    synthesize(ex, (300.0, 300.0), SynthesisConfig(levels=1, iterations=4, backtrack=True,
+                                                    add_samples=False), states.append)
+    e = [s.energy for s in states]
+    assert all(b <= a + 1e-6 for a, b in zip(e, e[1:], strict=False))
