@@ -57,6 +57,8 @@ def test_elements_cover_the_output(run):
     for qx in (0, 1, 2):  # every third of the output holds elements
         xs = centers[:, 0]
         assert ((xs >= qx * 100) & (xs < (qx + 1) * 100)).sum() >= 3
+    expected = len(ex.elements) * (300 * 260) / (200 * 200)  # same density as the input
+    assert 0.6 * expected <= len(res.placements) <= 1.6 * expected
 
 
 def test_matches_of_every_iteration_are_kept_for_the_next_step(run):
