@@ -1,11 +1,19 @@
-"""The ``cvt`` command line. Subcommands are added by the vector-synthesis modules."""
+"""The ``cvt`` command line: ``cvt synthesize`` and ``cvt inspect``."""
 
 from __future__ import annotations
 
 import argparse
+import json
+import math
+import sys
+from pathlib import Path
 
 from neuraltex import __version__
-from neuraltex.errors import cli_entry
+from neuraltex.errors import InputError, cli_entry
+from neuraltex.fileio import atomic_path, write_text_atomic
+
+MAX_SIDE_RATIO = 20.0  # output side / exemplar side
+MAX_FINE_SAMPLES = 200_000  # rough cap on finest-level output samples
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -14,8 +22,151 @@ def build_parser() -> argparse.ArgumentParser:
         description="Clustered Vector Textures: synthesize larger SVG patterns from an exemplar.",
     )
     parser.add_argument("--version", action="version", version=f"cvt {__version__}")
-    parser.add_subparsers(dest="command", metavar="COMMAND")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+
+    syn = sub.add_parser("synthesize", help="grow an SVG exemplar into a larger pattern")
+    syn.add_argument("exemplar", help="input SVG")
+    syn.add_argument("-o", "--output", required=True, help="output SVG")
+    syn.add_argument("--width", type=float, help="output width in exemplar user units")
+    syn.add_argument("--height", type=float, help="output height in exemplar user units")
+    syn.add_argument("--scale", type=float, help="output size as a multiple of the exemplar's")
+    syn.add_argument("--seed", type=int, default=0)
+    syn.add_argument("--levels", type=int, default=3, help="hierarchy levels (1-3)")
+    syn.add_argument("--iterations", type=int, default=7, help="iterations per level")
+    syn.add_argument("--init", choices=("patch", "random"), default="patch")
+    syn.add_argument("--threads", type=int, default=1, help="torch CPU threads")
+    syn.add_argument("--preview", help="also render the result to this PNG")
+    syn.add_argument("--debug-dir", help="write per-iteration sample pictures and energies here")
+    syn.add_argument("--quiet", action="store_true", help="no progress bar")
+    syn.set_defaults(func=cmd_synthesize)
+
+    ins = sub.add_parser("inspect", help="list an exemplar's elements and samples per level")
+    ins.add_argument("exemplar", help="input SVG")
+    ins.add_argument("--png", help="PNG of the sampled clusters (default: <stem>.samples.png)")
+    ins.add_argument("--no-png", action="store_true", help="do not write the PNG")
+    ins.add_argument("--levels", type=int, default=3)
+    ins.set_defaults(func=cmd_inspect)
     return parser
+
+
+def _output_size(args, exemplar) -> tuple[float, float]:
+    vw, vh = exemplar.viewbox[2:]
+    if args.scale is not None:
+        if args.width is not None or args.height is not None:
+            raise InputError("give either --scale or --width/--height, not both")
+        w, h = args.scale * vw, args.scale * vh
+    elif args.width is not None and args.height is not None:
+        w, h = args.width, args.height
+    else:
+        raise InputError("give the output size: --width W --height H, or --scale S")
+    if not (math.isfinite(w) and math.isfinite(h)) or w <= 0 or h <= 0:
+        raise InputError(f"output size must be positive, got {w:g} x {h:g}")
+    small = exemplar.size / 20  # the coarsest sampling distance
+    if w < small or h < small:
+        raise InputError(f"output size {w:g} x {h:g} is too small (minimum {small:g} per side)")
+    if w / vw > MAX_SIDE_RATIO or h / vh > MAX_SIDE_RATIO:
+        raise InputError(f"output size {w:g} x {h:g} is more than {MAX_SIDE_RATIO:g}x the "
+                         f"exemplar ({vw:g} x {vh:g})")
+    return w, h
+
+
+def _check_args(args) -> None:
+    if not 1 <= args.levels <= 3:
+        raise InputError("--levels must be 1, 2 or 3")
+    if not 1 <= args.iterations <= 100:
+        raise InputError("--iterations must be between 1 and 100")
+    if args.threads < 1:
+        raise InputError("--threads must be >= 1")
+
+
+def cmd_synthesize(args) -> int:
+    from cvt.svg import load_svg
+
+    _check_args(args)
+    ex = load_svg(args.exemplar)  # bad input fails here, before torch is even imported
+    size = _output_size(args, ex)
+
+    from tqdm import tqdm
+
+    from cvt.sampling import sample_exemplar
+    from cvt.synthesis import SynthesisConfig, result_svg, synthesize
+    cfg = SynthesisConfig(levels=args.levels, iterations=args.iterations, seed=args.seed,
+                          init=args.init, threads=args.threads)
+    fine = sample_exemplar(ex, cfg.deltas[-1] * ex.size)  # cheap size guard before the work
+    est = len(fine) * size[0] * size[1] / (ex.viewbox[2] * ex.viewbox[3])
+    if est > MAX_FINE_SAMPLES:
+        raise InputError(f"output too large: about {est:,.0f} finest-level samples "
+                         f"(limit {MAX_FINE_SAMPLES:,})")
+    debug = Path(args.debug_dir) if args.debug_dir else None
+    bar = tqdm(total=cfg.levels * cfg.iterations, disable=args.quiet, file=sys.stderr,
+               unit="it", dynamic_ncols=True)
+    box = (ex.viewbox[0], ex.viewbox[1], ex.viewbox[0] + size[0], ex.viewbox[1] + size[1])
+
+    def on_iteration(state) -> None:
+        bar.set_description(f"level {state.level + 1}/{cfg.levels}")
+        bar.set_postfix(energy=f"{state.energy:.3f}", samples=len(state.samples))
+        bar.update(1)
+        if debug is not None:
+            from cvt.debug import draw_samples
+
+            draw_samples(state.samples.pos, state.samples.cluster, box,
+                         debug / f"level{state.level}_iter{state.iteration}.png")
+
+    try:
+        res = synthesize(ex, size, cfg, on_iteration)
+    finally:
+        bar.close()
+    write_text_atomic(args.output, result_svg(ex, res))
+    if args.preview:
+        render_png(Path(args.output), Path(args.preview))
+    if debug is not None:
+        from cvt.debug import draw_energy
+
+        draw_energy(res.energies, debug / "energy.png")
+        write_text_atomic(debug / "energy.json", json.dumps(
+            {"energies": res.energies, "timings_s": res.timings,
+             "samples_per_level": res.samples_per_level}, indent=1))
+    print(f"wrote {args.output}: {len(res.placements)} elements, "
+          f"{res.samples_per_level[-1]} finest samples, energy {res.energies[-1][2]:.3f}")
+    return 0
+
+
+def render_png(svg_path: Path, png_path: Path, background: str = "white") -> None:
+    """Rasterize an SVG file with resvg (no network, no system fonts needed)."""
+    import resvg_py
+
+    data = resvg_py.svg_to_bytes(svg_path=str(svg_path), background=background,
+                                 skip_system_fonts=True)
+    with atomic_path(png_path) as tmp:
+        tmp.write_bytes(bytes(data))
+
+
+def cmd_inspect(args) -> int:
+    from cvt.debug import draw_samples
+    from cvt.sampling import hierarchy, sample_exemplar
+    from cvt.svg import load_svg
+
+    if not 1 <= args.levels <= 3:
+        raise InputError("--levels must be 1, 2 or 3")
+    ex = load_svg(args.exemplar)
+    x, y, w, h = ex.viewbox
+    print(f"{args.exemplar}: viewBox {x:g} {y:g} {w:g} {h:g}, size {ex.size:g}, "
+          f"{len(ex.elements)} elements, {len(ex.defs)} defs")
+    for e in ex.elements:
+        b = e.bbox
+        tag = e.node.tag.rsplit("}", 1)[-1]
+        print(f"  #{e.index:<4d} <{tag}> {len(e.shapes)} shape(s), "
+              f"{b[2] - b[0]:.1f} x {b[3] - b[1]:.1f} at ({b[0]:.1f}, {b[1]:.1f})")
+    levels = hierarchy(ex.size, args.levels)
+    last = None
+    for k, lv in enumerate(levels):
+        last = sample_exemplar(ex, lv.delta, seed=k)
+        print(f"  level {k}: delta {lv.delta:.3g}, radius {lv.radius:.3g}, {len(last)} samples")
+    if not args.no_png:
+        png = Path(args.png) if args.png else Path(f"{Path(args.exemplar).stem}.samples.png")
+        draw_samples(last.pos, last.cluster, (x, y, x + w, y + h), png)
+        print(f"wrote {png}")
+    return 0
 
 
 @cli_entry("cvt")
