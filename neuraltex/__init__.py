@@ -8,4 +8,13 @@ The core modules follow seed 003, chapter 4 (Compositional Neural Textures):
 - :mod:`neuraltex.splatting`   textons -> feature grid and max-opacity map (eqs. 4.11-4.14)
 """
 
+import os as _os
+
+# Large CPU tensors (feature grids of 256 px x 384 channels are 100 MB) on transparent huge
+# pages: first-touch page faults otherwise cost as much as the matmuls that fill them
+# (measured 2-3x on splatting, scripts/bench_splat.py --no-thp). Read by PyTorch's CPU
+# allocator once, so this only takes effect when neuraltex is imported before torch, as the
+# CLIs and the training program do.
+_os.environ.setdefault("THP_MEM_ALLOC_ENABLE", "1")
+
 __version__ = "0.1.0"

@@ -61,17 +61,15 @@ def estimate_textons(
                           device=masks.device, dtype=masks.dtype)
     d = pixel_grid(H, W, window, device=masks.device, dtype=masks.dtype) - centre  # (HW, 2)
     moments = torch.cat([d, d[:, :1] * d, d[:, 1:] * d[:, 1:]], dim=1).T  # (5, HW): x y xx xy yy
-    # Pool as X @ S^T so both backward products come out contiguous in the layouts of X and
-    # S; the small per-pixel quantities share one product, the wide appearance map has its own
-    # (concatenating them would copy the whole appearance map).
+    # The small per-pixel quantities share one pooling product, the wide appearance map has
+    # its own (concatenating them would copy the whole appearance map).
     C = appearance.shape[1]
-    St = S.transpose(1, 2)  # (B, HW, n)
     small = torch.cat([moments.expand(B, -1, -1), direction.reshape(B, 2, -1)], dim=1)
-    pooled = torch.bmm(small, St).transpose(1, 2) / mass.unsqueeze(-1)  # (B, n, 7)
+    pooled = _MaskPool.apply(small, S).transpose(1, 2) / mass.unsqueeze(-1)  # (B, n, 7)
     mean = pooled[..., :2]                          # eq. 4.3 (still centred)
     cov = _covariance(pooled[..., 2:5], mean, eps)  # eq. 4.4
     v = F.normalize(pooled[..., 5:], dim=-1, eps=1e-12)  # eq. 4.7
-    f = torch.bmm(appearance.reshape(B, C, -1), St).transpose(1, 2) / mass.unsqueeze(-1)
+    f = _MaskPool.apply(appearance.reshape(B, C, -1), S).transpose(1, 2) / mass.unsqueeze(-1)
     f = F.normalize(f, dim=-1, eps=1e-12)           # eq. 4.6
 
     p = (S * S).sum(dim=-1) / mass  # eq. 4.5: mask average weighted by itself
@@ -81,6 +79,24 @@ def estimate_textons(
     canvas = (window[2] - window[0], window[3] - window[1])
     return Textons(mu=mean + centre, cov=cov, v=v, f=f, p=p, delta=delta, order=order,
                    canvas=canvas)
+
+
+class _MaskPool(torch.autograd.Function):
+    """Y = X S^T, sums of per-pixel quantities under every mask: X (B, D, P), S (B, n, P) ->
+    (B, D, n). The backward writes both gradients straight into the layouts of X and S
+    (autograd's default would build the mask gradient transposed, then copy it)."""
+
+    @staticmethod
+    def forward(ctx, X: Tensor, S: Tensor) -> Tensor:
+        ctx.save_for_backward(X, S)
+        return torch.bmm(X, S.transpose(1, 2))
+
+    @staticmethod
+    def backward(ctx, gY: Tensor):
+        X, S = ctx.saved_tensors
+        gX = torch.bmm(gY, S) if ctx.needs_input_grad[0] else None
+        gS = torch.bmm(gY.transpose(1, 2).contiguous(), X) if ctx.needs_input_grad[1] else None
+        return gX, gS
 
 
 def _covariance(second: Tensor, mean: Tensor, eps: float) -> Tensor:

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import resource
 import subprocess
 import sys
@@ -53,13 +54,17 @@ def run_one(batch: int, size: int, mask_size: int, n: int, channels: int, masks_
     appearance.requires_grad_(True)
     direction = torch.randn(batch, 2, mask_size, mask_size, generator=g).requires_grad_(True)
 
+    # A dense upstream gradient, as the generator would send back (made once, not timed).
+    g_feat = torch.randn(batch, channels + 2, size, size, generator=g)
+    g_max = torch.randn(batch, 1, size, size, generator=g)
+
     def step(backward: bool) -> float:
         t0 = time.perf_counter()
         with torch.set_grad_enabled(backward):
             tex = estimate_textons(masks, appearance, direction, existence="soft")
             out = render(tex, (size, size))
             if backward:
-                (out.features.mean() + out.max_opacity.mean()).backward()
+                torch.autograd.backward([out.features, out.max_opacity], [g_feat, g_max])
         return time.perf_counter() - t0
 
     step(True)  # warm-up (allocator, thread pool)
@@ -87,6 +92,8 @@ def main() -> None:
     ap.add_argument("--masks", choices=["voronoi", "random"], default="voronoi")
     ap.add_argument("--mask-size", type=int, default=0,
                     help="resolution of masks and feature maps (default: the output size)")
+    ap.add_argument("--no-thp", action="store_true",
+                    help="do not put large tensors on transparent huge pages")
     ap.add_argument("--one", help=argparse.SUPPRESS)  # internal: run one config as JSON
     args = ap.parse_args()
 
@@ -100,7 +107,8 @@ def main() -> None:
     impl = "splat_reference (autograd)" if args.reference else "splat (chunked, custom backward)"
     masks_at = f"{args.mask_size} px" if args.mask_size else "output size"
     print(f"estimation + {impl}; n={args.gaussians}, C={args.channels}+2, {args.masks} masks "
-          f"at {masks_at}, torch {torch.__version__}, {torch.get_num_threads()} threads")
+          f"at {masks_at}, huge pages {'off' if args.no_thp else 'on'}, "
+          f"torch {torch.__version__}, {torch.get_num_threads()} threads")
     print(f"{'B':>3} {'size':>9} {'fwd s':>8} {'fwd+bwd s':>10} {'extra MB':>9}")
     for b in args.batches:
         for s in args.sizes:
@@ -109,7 +117,8 @@ def main() -> None:
                    "--masks", args.masks, "--mask-size", str(args.mask_size)]
             if args.reference:
                 cmd.append("--reference")
-            proc = subprocess.run(cmd, capture_output=True, text=True)
+            env = {**os.environ, "THP_MEM_ALLOC_ENABLE": "0" if args.no_thp else "1"}
+            proc = subprocess.run(cmd, capture_output=True, text=True, env=env)
             if proc.returncode != 0:
                 print(f"{b:>3} {s:>4}x{s:<4} failed: {proc.stderr.strip().splitlines()[-1]}")
                 continue
