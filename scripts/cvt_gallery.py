@@ -1,0 +1,69 @@
+"""Picture of vector synthesis: each exemplar next to its 2x synthesis, rendered with resvg.
+
+    python scripts/cvt_gallery.py --out docs/cvt_synthesis.png overlapping_leaves garden stars
+"""
+
+from __future__ import annotations
+
+import argparse
+import io
+import tempfile
+from pathlib import Path
+
+from PIL import Image, ImageDraw
+from tqdm import tqdm
+
+from neuraltex.fileio import atomic_path
+
+EXEMPLARS = Path(__file__).resolve().parents[1] / "cvt" / "exemplars"
+
+
+def render(svg: str, height: int) -> Image.Image:
+    import resvg_py
+
+    png = resvg_py.svg_to_bytes(svg_string=svg, background="white")
+    im = Image.open(io.BytesIO(bytes(png))).convert("RGB")
+    return im.resize((round(im.width * height / im.height), height), Image.LANCZOS)
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawTextHelpFormatter)
+    ap.add_argument("names", nargs="*", default=["overlapping_leaves", "garden", "stars_and_dots"])
+    ap.add_argument("--out", default="docs/cvt_synthesis.png")
+    ap.add_argument("--height", type=int, default=360, help="height of each 2x synthesis")
+    ap.add_argument("--seed", type=int, default=1)
+    args = ap.parse_args()
+    import cvt
+
+    rows = []
+    for name in tqdm(args.names, desc="synthesize"):
+        ex = cvt.load_svg(EXEMPLARS / f"{name}.svg")
+        with tempfile.TemporaryDirectory() as tmp:
+            out = Path(tmp) / "out.svg"
+            from cvt.cli import main as cvt_main
+
+            code = cvt_main(["synthesize", str(EXEMPLARS / f"{name}.svg"), "-o", str(out),
+                             "--scale", "2", "--seed", str(args.seed)])
+            if code:
+                raise SystemExit(code)
+            big = render(out.read_text(), args.height)
+        small = render((EXEMPLARS / f"{name}.svg").read_text(), args.height // 2)
+        row = Image.new("RGB", (small.width + big.width + 30, args.height + 18), "white")
+        row.paste(small, (0, 18))
+        row.paste(big, (small.width + 30, 18))
+        ImageDraw.Draw(row).text((0, 2), f"{name}: exemplar | 2x synthesis", fill="black")
+        rows.append(row)
+        del ex
+    width = max(r.width for r in rows)
+    sheet = Image.new("RGB", (width, sum(r.height + 10 for r in rows)), "white")
+    y = 0
+    for r in rows:
+        sheet.paste(r, (0, y))
+        y += r.height + 10
+    with atomic_path(args.out) as tmp:
+        sheet.save(tmp, format="PNG")
+    print(f"wrote {args.out}")
+
+
+if __name__ == "__main__":
+    main()
