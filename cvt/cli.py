@@ -9,7 +9,7 @@ import sys
 from pathlib import Path
 
 from neuraltex import __version__
-from neuraltex.errors import InputError, cli_entry
+from neuraltex.errors import InputError, cli_entry, dispatch
 from neuraltex.fileio import atomic_path, write_text_atomic
 
 MAX_SIDE_RATIO = 20.0  # output side / exemplar side
@@ -171,12 +171,7 @@ def cmd_inspect(args) -> int:
 
 @cli_entry("cvt")
 def main(argv: list[str] | None = None) -> int:
-    parser = build_parser()
-    args = parser.parse_args(argv)
-    if args.command is None:
-        parser.print_help()
-        return 0
-    return args.func(args)
+    return dispatch(build_parser(), argv)
 
 
 if __name__ == "__main__":

@@ -10,7 +10,7 @@ import argparse
 from pathlib import Path
 
 from neuraltex import __version__
-from neuraltex.errors import InputError, cli_entry
+from neuraltex.errors import InputError, cli_entry, dispatch
 
 DEFAULT_MODEL = Path(__file__).resolve().parent / "weights" / "default.safetensors"
 
@@ -204,12 +204,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 @cli_entry("neuraltex")
 def main(argv: list[str] | None = None) -> int:
-    parser = build_parser()
-    args = parser.parse_args(argv)
-    if args.command is None:
-        parser.print_help()
-        return 0
-    return args.func(args)
+    return dispatch(build_parser(), argv)
 
 
 if __name__ == "__main__":

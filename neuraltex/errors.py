@@ -41,5 +41,14 @@ def cli_entry(prog: str) -> Callable[[Callable[..., int | None]], Callable[..., 
     return wrap
 
 
+def dispatch(parser, argv: list[str] | None = None) -> int:
+    """Parse ``argv`` and run the chosen subcommand's ``func``; no subcommand prints help."""
+    args = parser.parse_args(argv)
+    if getattr(args, "command", None) is None:
+        parser.print_help()
+        return 0
+    return args.func(args)
+
+
 def _one_line(exc: BaseException) -> str:
     return " ".join(str(exc).split()) or type(exc).__name__
