@@ -13,6 +13,8 @@ only (delta = 1), exactly.
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import torch
 from torch import Tensor
 
@@ -45,7 +47,7 @@ def soft_reshuffle(textons: Textons, *, gamma: float = 0.5, area: Tensor | None 
     tau = swap_coefficients(textons.p, perm, gamma, area).unsqueeze(-1)  # (B, K, 1)
     donor = torch.gather(textons.f, 1, perm.unsqueeze(-1).expand_as(textons.f))  # P F
     f = (1 - tau) * textons.f + tau * donor  # eq. 4.19
-    return _with_features(textons, f)
+    return replace(textons, f=f)
 
 
 def reshuffle(textons: Textons, *, seed: int | None = None, threshold: float = 0.5) -> Textons:
@@ -64,9 +66,5 @@ def reshuffle(textons: Textons, *, seed: int | None = None, threshold: float = 0
         idx = torch.nonzero(textons.delta[b] > threshold).squeeze(1)
         perm = idx[torch.randperm(len(idx), generator=g).to(idx.device)]
         f[b, idx] = textons.f[b, perm]
-    return _with_features(textons, f)
+    return replace(textons, f=f)
 
-
-def _with_features(textons: Textons, f: Tensor) -> Textons:
-    return Textons(mu=textons.mu, cov=textons.cov, v=textons.v, f=f, p=textons.p,
-                   delta=textons.delta, order=textons.order, canvas=textons.canvas)

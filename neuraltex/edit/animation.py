@@ -15,6 +15,7 @@ period 2 pi / omega.
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import torch
@@ -49,7 +50,7 @@ def shear_flow(textons: Textons, t: float, velocity: float = 0.5, eps: float = 0
     x, y = _to_unit(textons)
     shift = torch.where(y < -1 / 3, -velocity * t + eps,
                         torch.where(y > 1 / 3, velocity * t + eps, torch.zeros_like(x)))
-    return _with_mu(textons, _from_unit(textons, x + shift, y))
+    return replace(textons, mu=_from_unit(textons, x + shift, y))
 
 
 def vortex_flow(textons: Textons, t: float, omega: float = 2 * math.pi / 4) -> Textons:
@@ -58,7 +59,7 @@ def vortex_flow(textons: Textons, t: float, omega: float = 2 * math.pi / 4) -> T
     w, h = textons.canvas
     turned = textons.rotate(math.degrees(omega * t), center=(w / 2, h / 2))
     x, y = _to_unit(turned)
-    return _with_mu(turned, _from_unit(turned, x, y))
+    return replace(turned, mu=_from_unit(turned, x, y))
 
 
 def animate(textons: Textons, flow: str, frames: int, duration: float = 4.0, seed: int = 0,
@@ -76,7 +77,3 @@ def animate(textons: Textons, flow: str, frames: int, duration: float = 4.0, see
             raise ValueError(f"unknown flow {flow!r} (shear or vortex)")
     return out
 
-
-def _with_mu(t: Textons, mu: torch.Tensor) -> Textons:
-    return Textons(mu=mu, cov=t.cov, v=t.v, f=t.f, p=t.p, delta=t.delta, order=t.order,
-                   canvas=t.canvas)

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import json
 import math
+from dataclasses import replace
 from pathlib import Path
 
 import torch
@@ -95,8 +96,7 @@ def rotate(t: Textons, mask: Tensor, degrees: float) -> Textons:
 def delete(t: Textons, mask: Tensor) -> Textons:
     """Switch the selected textons off (delta = p = 0); indices of the others stay valid."""
     keep = (~mask).reshape(1, -1).to(t.dtype)
-    return Textons(mu=t.mu, cov=t.cov, v=t.v, f=t.f, p=t.p * keep, delta=t.delta * keep,
-                   order=t.order, canvas=t.canvas)
+    return replace(t, p=t.p * keep, delta=t.delta * keep)
 
 
 def duplicate(t: Textons, mask: Tensor, dx: float = 0.0, dy: float = 0.0) -> Textons:

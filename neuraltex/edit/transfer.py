@@ -9,6 +9,7 @@ centre) takes the appearance assigned to its region.
 
 from __future__ import annotations
 
+from dataclasses import replace
 from typing import Literal
 
 import torch
@@ -30,7 +31,7 @@ def transfer(structure: Textons, appearance: Textons, mode: Mode = "mean",
     app = [appearance[b if appearance.batch_size > 1 else 0] for b in range(structure.batch_size)]
     f = torch.stack([_transfer_one(structure[b], app[b], mode, seed + b)[0]
                      for b in range(structure.batch_size)])
-    return _with_f(structure, f)
+    return replace(structure, f=f)
 
 
 def transfer_regions(structure: Textons, appearances: list[Textons], regions: Tensor,
@@ -47,7 +48,7 @@ def transfer_regions(structure: Textons, appearances: list[Textons], regions: Te
             sub = structure.filter(inside.unsqueeze(0))
             new = _transfer_one(sub, app[0:1], mode, seed + r)[0]
             f[inside] = new[: int(inside.sum())]
-    return _with_f(structure, f.unsqueeze(0))
+    return replace(structure, f=f.unsqueeze(0))
 
 
 def _transfer_one(s: Textons, a: Textons, mode: Mode, seed: int) -> Tensor:
@@ -66,7 +67,3 @@ def _transfer_one(s: Textons, a: Textons, mode: Mode, seed: int) -> Tensor:
     f[0, eff] = pool[pick[eff]]
     return f
 
-
-def _with_f(t: Textons, f: Tensor) -> Textons:
-    return Textons(mu=t.mu, cov=t.cov, v=t.v, f=f, p=t.p, delta=t.delta, order=t.order,
-                   canvas=t.canvas)

@@ -7,6 +7,8 @@ L_bar of U_bar, W_i = L_i L_bar^-1 maps the mean shape to U_i, and U*_i = W_i^lu
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import torch
 from torch import Tensor
 
@@ -48,5 +50,4 @@ def vary(textons: Textons, appearance: float = 1.0, shape: float = 1.0) -> Texto
         Wl = lower_triangular_power(W, shape)
         cov = Wl @ U_bar @ Wl.transpose(-1, -2)  # eq. 4.30
         cov = 0.5 * (cov + cov.transpose(-1, -2))
-    return Textons(mu=t.mu, cov=cov, v=t.v, f=f, p=t.p, delta=t.delta, order=t.order,
-                   canvas=t.canvas)
+    return replace(t, f=f, cov=cov)
