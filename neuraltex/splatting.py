@@ -51,9 +51,8 @@ def splat(textons: Textons, size: tuple[int, int], *, window: Window | None = No
     (at M^2 = cutoff^2, or 30 without a cut-off) reaches it, in draw order. Opacities are
     recomputed in the backward pass instead of stored.
     """
-    mu, prec, delta, feats, _, (H, W) = _prepare(textons, size, window)
+    mu, prec, delta, feats, (H, W), window = _prepare(textons, size, window)
     B, K, C = feats.shape
-    window = default_window(H, W) if window is None else window
     side = max(16, math.ceil(math.sqrt(H * W / _MAX_TILES)))
     ty, tx = math.ceil(H / side), math.ceil(W / side)
     px, py = (window[2] - window[0]) / W, (window[3] - window[1]) / H
@@ -109,8 +108,9 @@ def _untile(x: Tensor, H: int, W: int) -> Tensor:
 def splat_reference(textons: Textons, size: tuple[int, int], *, window: Window | None = None,
                     cutoff: float | None = None) -> Splat:
     """Plain-autograd splatting, materializing (B, K, H*W) opacities. For tests and debugging."""
-    mu, prec, delta, feats, grid, (H, W) = _prepare(textons, size, window)
+    mu, prec, delta, feats, (H, W), window = _prepare(textons, size, window)
     B, K, C = feats.shape
+    grid = pixel_grid(H, W, window, device=mu.device, dtype=mu.dtype)  # (HW, 2)
     o = _opacity(mu, prec, delta, grid, cutoff)  # (B, K, HW), front-most texton first
     alpha = o * _transmittance(o)
     out = feats.transpose(1, 2) @ alpha  # (B, C, HW)
@@ -124,7 +124,8 @@ def opacity_maps(textons: Textons, size: tuple[int, int], *, window: Window | No
     With ``composite`` these are the alpha-composited weights a_i (eq. 4.13) — what each texton
     contributes to each pixel, e.g. for overlays and vectorization; otherwise the raw o_i.
     """
-    mu, prec, delta, _, grid, (H, W) = _prepare(textons, size, window)
+    mu, prec, delta, _, (H, W), window = _prepare(textons, size, window)
+    grid = pixel_grid(H, W, window, device=mu.device, dtype=mu.dtype)  # (HW, 2)
     o = _opacity(mu, prec, delta, grid, cutoff)
     maps = o * _transmittance(o) if composite else o
     inverse = torch.argsort(_front_to_back(textons), dim=1)  # back to index order
@@ -150,8 +151,7 @@ def _prepare(textons: Textons, size: tuple[int, int], window: Window | None):
     window = default_window(H, W) if window is None else window
     dtype = torch.promote_types(textons.dtype, torch.float32)
     t = textons.index(_front_to_back(textons)).to(dtype=dtype)
-    grid = pixel_grid(H, W, window, device=t.device, dtype=dtype)  # (HW, 2)
-    return t.mu, precision(t.cov), t.delta, t.features(), grid, (H, W)
+    return t.mu, precision(t.cov), t.delta, t.features(), (H, W), window
 
 
 def _mahalanobis(mu: Tensor, prec: Tensor, grid: Tensor) -> tuple[Tensor, Tensor, Tensor]:
@@ -166,14 +166,20 @@ def _mahalanobis(mu: Tensor, prec: Tensor, grid: Tensor) -> tuple[Tensor, Tensor
     return m2, dx, dy
 
 
-def _opacity(mu: Tensor, prec: Tensor, delta: Tensor, grid: Tensor,
-             cutoff: float | None) -> Tensor:
-    """o_i = delta_i exp(-M^2) (eq. 4.12), zero beyond the cut-off. (B, K, P)."""
-    m2, _, _ = _mahalanobis(mu, prec, grid)
+def _gaussian(mu: Tensor, prec: Tensor, grid: Tensor, cutoff: float | None):
+    """exp(-M^2) (eq. 4.12 without delta), zero beyond the cut-off, with M^2 and the offsets
+    the backward pass needs. Returns g, m2, dx, dy, each (N, K, P)."""
+    m2, dx, dy = _mahalanobis(mu, prec, grid)
     g = torch.exp(-m2)
     if cutoff is not None:
         g = g * (m2 <= cutoff * cutoff)
-    return delta.unsqueeze(-1) * g
+    return g, m2, dx, dy
+
+
+def _opacity(mu: Tensor, prec: Tensor, delta: Tensor, grid: Tensor,
+             cutoff: float | None) -> Tensor:
+    """o_i = delta_i exp(-M^2) (eq. 4.12), zero beyond the cut-off. (B, K, P)."""
+    return delta.unsqueeze(-1) * _gaussian(mu, prec, grid, cutoff)[0]
 
 
 def _transmittance(o: Tensor) -> Tensor:
@@ -221,10 +227,7 @@ class _SplatFunction(torch.autograd.Function):
         for s in range(0, feats.shape[0], chunk):
             e = s + chunk
             pr = prec[s:e]
-            m2, dx, dy = _mahalanobis(mu[s:e], pr, grid[s:e])
-            g = torch.exp(-m2)
-            if cutoff is not None:
-                g = g * (m2 <= cutoff * cutoff)
+            g, _, dx, dy = _gaussian(mu[s:e], pr, grid[s:e], cutoff)
             o = delta[s:e].unsqueeze(-1) * g
             T = _transmittance(o)
             go = g_out[s:e]                                  # (n, C, P)
