@@ -18,7 +18,6 @@ from __future__ import annotations
 import hashlib
 import json
 import os
-import pickle
 import random
 from pathlib import Path
 from typing import Any
@@ -27,7 +26,7 @@ import numpy as np
 import torch
 
 from neuraltex.errors import InputError
-from neuraltex.fileio import atomic_path
+from neuraltex.fileio import atomic_path, load_weights_only
 
 TRAIN_FORMAT = "neuraltex.train-checkpoint"
 EXPORT_FORMAT = "neuraltex.model"
@@ -141,11 +140,7 @@ def _torch_load(path: str | os.PathLike) -> Any:
     path = Path(path)
     if not path.is_file():
         raise CheckpointError(f"{path}: no such checkpoint")
-    try:
-        return torch.load(path, map_location="cpu", weights_only=True)
-    except (pickle.UnpicklingError, RuntimeError, EOFError, OSError, ValueError) as exc:
-        raise CheckpointError(f"{path}: not a loadable checkpoint "
-                              f"({' '.join(str(exc).split())[:160]})") from None
+    return load_weights_only(path, CheckpointError, "checkpoint")
 
 
 def _check_version(version: Any, path: str | os.PathLike) -> None:

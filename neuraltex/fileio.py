@@ -43,3 +43,18 @@ def write_bytes_atomic(path: str | os.PathLike, data: bytes) -> None:
 
 def write_text_atomic(path: str | os.PathLike, text: str) -> None:
     write_bytes_atomic(path, text.encode("utf-8"))
+
+
+def load_weights_only(path: str | os.PathLike, error: type[Exception], what: str):
+    """``torch.load`` that never runs pickled code (``weights_only=True``); any failure is
+    raised as ``error`` with a one-line message naming ``what`` the file should have been."""
+    import pickle
+
+    import torch
+
+    from neuraltex.errors import _one_line
+
+    try:
+        return torch.load(path, map_location="cpu", weights_only=True)
+    except (pickle.UnpicklingError, RuntimeError, EOFError, OSError, ValueError) as exc:
+        raise error(f"{path}: not a loadable {what} ({_one_line(exc)[:200]})") from None

@@ -20,13 +20,12 @@ from __future__ import annotations
 
 import json
 import os
-import pickle
 from pathlib import Path
 
 import torch
 
 from neuraltex.errors import InputError
-from neuraltex.fileio import atomic_path, write_text_atomic
+from neuraltex.fileio import atomic_path, load_weights_only, write_text_atomic
 from neuraltex.textons import _TENSOR_FIELDS, Textons
 
 FORMAT = "neuraltex.textons"
@@ -72,11 +71,7 @@ def load_textons(path: str | os.PathLike) -> Textons:
         _check_header(data, path)
         textons = _from_json(data, path)
     elif path.suffix == ".pt":
-        try:
-            data = torch.load(path, map_location="cpu", weights_only=True)
-        except (pickle.UnpicklingError, RuntimeError, EOFError, OSError, ValueError) as exc:
-            raise TextonFileError(f"{path}: not a loadable texton file "
-                                  f"({' '.join(str(exc).split())[:200]})") from None
+        data = load_weights_only(path, TextonFileError, "texton file")
         _check_header(data, path)
         textons = _build(data, path)
     else:
