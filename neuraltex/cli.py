@@ -157,6 +157,20 @@ def _common(p: argparse.ArgumentParser, size: bool = True) -> None:
                        help="output size: N (short side) or H W")
 
 
+IMAGE_OUT = ".png/.jpg/.webp"
+
+
+def _model_command(sub, name: str, func, help: str, source: str, output_help: str,
+                   size: bool = True) -> argparse.ArgumentParser:
+    """A subcommand that reads ``source``, runs the model and writes ``-o OUTPUT``."""
+    p = sub.add_parser(name, help=help, description=func.__doc__)
+    p.add_argument(source, type=Path)
+    p.add_argument("-o", "--output", type=Path, required=True, help=output_help)
+    _common(p, size=size)
+    p.set_defaults(func=func)
+    return p
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="neuraltex",
@@ -171,34 +185,16 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--to", type=Path, help="also write the textons to this .json or .pt file")
     p.set_defaults(func=cmd_textons)
 
-    p = sub.add_parser("encode", help="image -> textons file", description=cmd_encode.__doc__)
-    p.add_argument("image", type=Path)
-    p.add_argument("-o", "--output", type=Path, required=True, help="textons .json or .pt")
+    p = _model_command(sub, "encode", cmd_encode, "image -> textons file", "image",
+                       "textons .json or .pt", size=False)
     p.add_argument("--overlay", type=Path, help="also write an overlay picture")
-    _common(p, size=False)
-    p.set_defaults(func=cmd_encode)
-
-    p = sub.add_parser("decode", help="textons file -> image", description=cmd_decode.__doc__)
-    p.add_argument("textons", type=Path)
-    p.add_argument("-o", "--output", type=Path, required=True, help=".png/.jpg/.webp")
-    _common(p)
-    p.set_defaults(func=cmd_decode)
-
-    p = sub.add_parser("reconstruct", help="image -> textons -> image",
-                       description=cmd_reconstruct.__doc__)
-    p.add_argument("image", type=Path)
-    p.add_argument("-o", "--output", type=Path, required=True, help=".png/.jpg/.webp")
-    _common(p)
-    p.set_defaults(func=cmd_reconstruct)
-
-    p = sub.add_parser("overlay", help="picture of an image's textons",
-                       description=cmd_overlay.__doc__)
-    p.add_argument("image", type=Path)
-    p.add_argument("-o", "--output", type=Path, required=True, help=".png/.jpg/.webp")
+    _model_command(sub, "decode", cmd_decode, "textons file -> image", "textons", IMAGE_OUT)
+    _model_command(sub, "reconstruct", cmd_reconstruct, "image -> textons -> image", "image",
+                   IMAGE_OUT)
+    p = _model_command(sub, "overlay", cmd_overlay, "picture of an image's textons", "image",
+                       IMAGE_OUT, size=False)
     p.add_argument("--svg", type=Path, help="also write the Gaussians as SVG ellipses")
     p.add_argument("--scale", type=int, default=2, help="picture magnification (default 2)")
-    _common(p, size=False)
-    p.set_defaults(func=cmd_overlay)
     return parser
 
 
