@@ -26,7 +26,7 @@ def cli_entry(prog: str) -> Callable[[Callable[..., int | None]], Callable[..., 
             try:
                 return main(*args, **kwargs) or 0
             except InputError as exc:
-                print(f"{prog}: error: {_one_line(exc)}", file=sys.stderr)
+                print(f"{prog}: error: {one_line(exc)}", file=sys.stderr)
                 return EXIT_USAGE
             except KeyboardInterrupt:
                 print(f"{prog}: interrupted", file=sys.stderr)
@@ -50,5 +50,5 @@ def dispatch(parser, argv: list[str] | None = None) -> int:
     return args.func(args)
 
 
-def _one_line(exc: BaseException) -> str:
+def one_line(exc: BaseException) -> str:
     return " ".join(str(exc).split()) or type(exc).__name__

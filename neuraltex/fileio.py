@@ -52,9 +52,9 @@ def load_weights_only(path: str | os.PathLike, error: type[Exception], what: str
 
     import torch
 
-    from neuraltex.errors import _one_line
+    from neuraltex.errors import one_line
 
     try:
         return torch.load(path, map_location="cpu", weights_only=True)
     except (pickle.UnpicklingError, RuntimeError, EOFError, OSError, ValueError) as exc:
-        raise error(f"{path}: not a loadable {what} ({_one_line(exc)[:200]})") from None
+        raise error(f"{path}: not a loadable {what} ({one_line(exc)[:200]})") from None

@@ -18,6 +18,7 @@ import torch
 from torch import Tensor, nn
 
 from neuraltex.consistency import consistency_loss
+from neuraltex.discriminators import random_crops
 from neuraltex.losses import (
     ReconstructionLoss,
     compactness_loss,
@@ -53,8 +54,6 @@ class Outputs(NamedTuple):
 
 
 def _crops(images: Tensor, size: int, n: int, g: torch.Generator) -> Tensor:
-    from neuraltex.discriminators import random_crops
-
     return random_crops(images, size, n, generator=g)
 
 
