@@ -127,6 +127,34 @@ def load_exported_model(path: str | os.PathLike) -> tuple[dict[str, torch.Tensor
         raise CheckpointError(f"{path}: model header is malformed") from None
 
 
+def export_header(path: str | os.PathLike) -> tuple[dict, dict]:
+    """(model_config, info) of an export, read from its header only (no weights, no hash
+    check: for ``--version``; :func:`load_exported_model` validates)."""
+    from safetensors import SafetensorError, safe_open
+
+    try:
+        with safe_open(str(path), framework="pt") as fh:
+            meta = fh.metadata() or {}
+        return json.loads(meta["model_config"]), json.loads(meta.get("info", "{}"))
+    except (SafetensorError, OSError, ValueError, KeyError, RuntimeError):
+        raise CheckpointError(f"{path}: not a readable neuraltex model export") from None
+
+
+def summary(config: dict, info: dict) -> str:
+    """One line: architecture and how it was trained (stages, steps, wall time, supervision)."""
+    queries = config.get("num_queries") or "preset"
+    stages, cur = [], info
+    while cur:
+        sup = cur.get("mask_supervision", "?")
+        frozen = f", {'+'.join(cur['freeze'])} frozen" if cur.get("freeze") else ""
+        stages.insert(0, f"{cur.get('steps', '?')} steps / {cur.get('wall_s', 0) / 60:.0f} min "
+                         f"on {cur.get('device', '?')} (mask supervision {sup}{frozen})")
+        cur = (cur.get("init_from") or {}).get("info")
+    return (f"preset {config.get('preset')}, {queries} queries, trained at "
+            f"{config.get('image_size')} px: " + " then ".join(stages)
+            + f"; LPIPS backbone {info.get('lpips_backbone', '?')}")
+
+
 def _tensor_digest(tensors: dict[str, torch.Tensor]) -> str:
     h = hashlib.sha256()
     for name in sorted(tensors):

@@ -146,6 +146,42 @@ def cmd_textons(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_model_info(args: argparse.Namespace) -> int:
+    """Print which model is used and how it was trained (validates the weights too)."""
+    import json
+
+    from neuraltex.checkpoint import summary
+
+    path = Path(args.checkpoint) if args.checkpoint else DEFAULT_MODEL
+    model = _model(args)
+    n = sum(p.numel() for p in model.parameters())
+    print(f"model: {path}{' (shipped default)' if not args.checkpoint else ''}")
+    print(f"{n / 1e6:.2f} M parameters; {summary(model.config, model.info)}")
+    if args.json:
+        print(json.dumps({"config": model.config, "info": model.info}, indent=1))
+    return 0
+
+
+class _Version(argparse.Action):
+    """``--version``: the package version and the shipped default model."""
+
+    def __init__(self, option_strings, dest=argparse.SUPPRESS, **kwargs):
+        super().__init__(option_strings, dest, nargs=0, default=argparse.SUPPRESS, **kwargs)
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        from neuraltex.checkpoint import CheckpointError, export_header, summary
+
+        print(f"neuraltex {__version__}")
+        if not DEFAULT_MODEL.exists():
+            print("default model: none shipped (pass --checkpoint)")
+        else:
+            try:
+                print(f"default model: {summary(*export_header(DEFAULT_MODEL))}")
+            except CheckpointError as exc:
+                print(f"default model: unreadable ({exc})")
+        parser.exit()
+
+
 def _common(p: argparse.ArgumentParser, size: bool = True) -> None:
     p.add_argument("--checkpoint", help="model .safetensors (default: the shipped model)")
     p.add_argument("--device", default="cpu", help="torch device (default: cpu)")
@@ -176,7 +212,8 @@ def build_parser() -> argparse.ArgumentParser:
         prog="neuraltex",
         description="Gaussian-texton textures: encode, edit and decode textures as textons.",
     )
-    parser.add_argument("--version", action="version", version=f"neuraltex {__version__}")
+    parser.add_argument("--version", action=_Version,
+                        help="print the version and the default model, then exit")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
 
     p = sub.add_parser("textons", help="check, summarize and convert a texton file",
@@ -194,6 +231,13 @@ def build_parser() -> argparse.ArgumentParser:
     p = _model_command(sub, "overlay", cmd_overlay, "picture of an image's textons", "image",
                        IMAGE_OUT, size=False)
     p.add_argument("--svg", type=Path, help="also write the Gaussians as SVG ellipses")
+
+    p = sub.add_parser("model-info", help="which model is used and how it was trained",
+                       description=cmd_model_info.__doc__)
+    p.add_argument("--checkpoint", help="model .safetensors (default: the shipped model)")
+    p.add_argument("--device", default="cpu", help="torch device (default: cpu)")
+    p.add_argument("--json", action="store_true", help="also print the full header as JSON")
+    p.set_defaults(func=cmd_model_info, seed=None)
     p.add_argument("--scale", type=int, default=2, help="picture magnification (default 2)")
     return parser
 

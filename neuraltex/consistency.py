@@ -59,12 +59,17 @@ def matching_cost(a: Textons, b: Textons, masks_a: Tensor, masks_b: Tensor,
 
 def consistency_loss(transformed: Textons, encoded: Textons, masks_t: Tensor, masks_e: Tensor,
                      valid: Tensor | None = None,
-                     weights: ConsistencyWeights = ConsistencyWeights()) -> Tensor:
+                     weights: ConsistencyWeights = ConsistencyWeights(),
+                     reduce: str = "sum") -> Tensor:
     """eqs. 4.22-4.23: minimum-cost matching between T(E(I)) and E(T(I)), averaged over B.
 
     ``valid`` (B, n) marks the textons of ``transformed`` that stayed inside the image; the
     others are left out of the matching (they have no counterpart in E(T(I))).
+    ``reduce="sum"`` is eq. 4.22 (the matched costs summed); ``"mean"`` averages them, which
+    keeps the loss's scale independent of the number of queries n.
     """
+    if reduce not in ("sum", "mean"):
+        raise ValueError(f"reduce must be 'sum' or 'mean', got {reduce!r}")
     cost = matching_cost(transformed, encoded, masks_t, masks_e, weights)
     total = cost.new_zeros(())
     for b in range(cost.shape[0]):
@@ -73,5 +78,6 @@ def consistency_loss(transformed: Textons, encoded: Textons, masks_t: Tensor, ma
             continue
         sub = cost[b, rows.to(cost.device)]
         r, c = linear_sum_assignment(sub.detach().cpu().numpy())
-        total = total + sub[torch.as_tensor(r), torch.as_tensor(c)].sum()
+        matched = sub[torch.as_tensor(r), torch.as_tensor(c)]
+        total = total + (matched.sum() if reduce == "sum" else matched.mean())
     return total / cost.shape[0]

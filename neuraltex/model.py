@@ -48,19 +48,24 @@ class TextonAutoencoder(nn.Module):
     def encode(self, image: Tensor, existence: Existence = "round",
                generator: torch.Generator | None = None) -> Encoded:
         """Image (B, 3, H, W) in [0, 1] -> textons (+ the maps they came from)."""
-        x = image * 2 - 1
-        appearance, direction = self.encoder(x)
-        seg = self.segmenter(x)
-        logits = getattr(seg, "logits", seg)  # (B, n, h', w')
-        size = self._estimation_hw(image)
-        masks = F.interpolate(logits, size=size, mode="bilinear", align_corners=False)
-        masks = masks.softmax(dim=1)
+        appearance, direction = self.encoder(image * 2 - 1)
+        masks = self.segment(image)
+        size = tuple(masks.shape[-2:])
         appearance = _resize(appearance, size)
         direction = _resize(direction, size)
         textons = estimate_textons(masks, appearance, direction, existence=existence,
                                    temperature=self.temperature, eps=self.eps,
                                    generator=generator)
         return Encoded(textons, masks, appearance, direction)
+
+    def segment(self, image: Tensor) -> Tensor:
+        """E_s: image (B, 3, H, W) in [0, 1] -> masks S (B, n, h, w), softmax over the n
+        queries, at the estimation resolution."""
+        seg = self.segmenter(image * 2 - 1)
+        logits = getattr(seg, "logits", seg)  # (B, n, h', w')
+        logits = F.interpolate(logits, size=self._estimation_hw(image), mode="bilinear",
+                               align_corners=False)
+        return logits.softmax(dim=1)
 
     def render(self, textons: Textons, size: tuple[int, int]) -> Splat:
         return splat(textons, size, cutoff=self.cutoff)
@@ -89,11 +94,16 @@ def _resize(x: Tensor, size: tuple[int, int]) -> Tensor:
 
 def build_model(config: dict, with_critics: bool = False):
     """The autoencoder described by a model config (the dict stored in checkpoints/exports:
-    preset, estimation_size, eps, temperature, cutoff). With ``with_critics`` also returns the
-    image and patch discriminators: (model, D, D_p)."""
+    preset, num_queries, anchor_prior, estimation_size, eps, temperature, cutoff). With
+    ``with_critics`` also returns the image and patch discriminators: (model, D, D_p)."""
     from neuraltex.networks import NetworksConfig, build_networks
 
-    nets = build_networks(NetworksConfig.preset(config["preset"]))
+    nets_cfg = NetworksConfig.preset(config["preset"])
+    if config.get("num_queries"):  # n = max textons per image; None keeps the preset's
+        nets_cfg.segmentation.num_queries = int(config["num_queries"])
+    if config.get("anchor_prior") is not None:  # None keeps the preset's
+        nets_cfg.segmentation.anchor_prior = bool(config["anchor_prior"])
+    nets = build_networks(nets_cfg)
     model = TextonAutoencoder(nets.encoder, nets.segmentation, nets.generator,
                               estimation_size=config.get("estimation_size"),
                               eps=config.get("eps", 1e-5),
@@ -101,7 +111,7 @@ def build_model(config: dict, with_critics: bool = False):
                               cutoff=config.get("cutoff"))
     if not with_critics:
         return model
-    pcfg = NetworksConfig.preset(config["preset"]).patch_discriminator
+    pcfg = nets_cfg.patch_discriminator
     nets.patch_discriminator.crop_size = pcfg.crop_size
     nets.patch_discriminator.num_crops = pcfg.num_crops
     return model, nets.discriminator, nets.patch_discriminator

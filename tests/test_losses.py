@@ -90,3 +90,14 @@ def test_consistency_is_zero_for_a_permuted_copy_and_positive_otherwise():
     # Textons marked invalid are left out: with none valid the loss vanishes.
     none = torch.zeros(1, 6, dtype=torch.bool)
     assert consistency_loss(t, moved, masks, masks, valid=none).item() == 0
+
+
+def test_consistency_mean_is_the_sum_over_matched_pairs():
+    t = make_textons(B=2, K=6, C=3, seed=3)
+    moved = t.translate(0.05, 0.0)
+    masks = torch.rand(2, 6, 8, 8, generator=torch.Generator().manual_seed(0)).softmax(1)
+    s = consistency_loss(moved, t, masks, masks)
+    m = consistency_loss(moved, t, masks, masks, reduce="mean")
+    assert m.item() == pytest.approx(s.item() / 6, rel=1e-5)
+    with pytest.raises(ValueError):
+        consistency_loss(moved, t, masks, masks, reduce="max")

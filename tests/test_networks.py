@@ -225,7 +225,9 @@ def test_gradients_reach_every_parameter(tiny):
     x = torch.rand(2, 3, 64, 64)
     f_a, v = nets.encoder(x)
     (f_a * torch.randn_like(f_a)).sum().add((v * torch.randn_like(v)).sum()).backward()
-    out = nets.segmentation(x)
+    # The anchor prior makes each query own ~1/16 of the image, so masked attention leaves it
+    # one stride-32 token at 64^2; at 128^2 (16 tokens) every projection gets a gradient.
+    out = nets.segmentation(torch.rand(2, 3, 128, 128))
     (out.logits * torch.randn_like(out.logits)).sum().backward()  # sum(S) would be constant
     c = tiny.generator.feature_channels
     img = nets.generator(torch.rand(2, c, 32, 32), torch.rand(2, 1, 32, 32))
@@ -370,3 +372,19 @@ def test_discriminator_config_presets():
     for name in ("tiny", "small", "paper"):
         assert DiscriminatorConfig.preset(name).channels
         assert PatchDiscriminatorConfig.preset(name).num_crops == 8
+
+
+def test_anchor_prior_starts_as_a_grid_partition_and_follows_its_offsets():
+    from neuraltex.segmentation import AnchorPrior
+
+    prior = AnchorPrior(num_queries=9, hidden_dim=8)
+    q = torch.zeros(1, 9, 8)
+    owner = prior(q, (30, 30), (1.0, 1.0)).argmax(1)[0]  # (30, 30)
+    expected = (torch.arange(30) // 10)[:, None] * 3 + (torch.arange(30) // 10)[None, :]
+    assert torch.equal(owner, expected)  # 3 x 3 grid, raster order
+    with torch.no_grad():
+        prior.head.bias[:2] = torch.tensor([10.0, 0.0])  # tanh -> +2 cells in x for all
+    shifted = prior(q, (30, 30), (1.0, 1.0))
+    # query 0 (anchor at column 0) now peaks two cells to the right
+    peak = shifted[0, 0].amax(0).argmax()
+    assert 20 <= int(peak) <= 29

@@ -85,3 +85,65 @@ def test_overfit_one_batch_lowers_reconstruction_loss():
     first, last = sum(losses[:5]) / 5, sum(losses[-5:]) / 5
     assert last < 0.6 * first, (first, last)
     assert out.logs["diag/l1"] < out.logs["diag/l1_constant"]  # beats a constant image
+
+
+def test_segmenter_warmup_trains_only_the_segmenter(tmp_path):
+    """During loss.segmenter_warmup only E_s changes; E_FC, G and the critics stay put."""
+    cfg = _cfg(tmp_path, "trainer.max_steps=2", "loss.mask_supervision=gt",
+               "loss.segmenter_warmup=100", "trainer.schedule_scale=1")
+    torch.manual_seed(cfg.seed)
+    from neuraltex.model import build_model
+
+    before, _, _ = build_model({"preset": "tiny"}, with_critics=True)
+    logs = run(cfg)
+    assert "mask" in logs and "recon" not in logs and "d" not in logs
+    after = load_training_checkpoint(tmp_path / "last.pt")["modules"]["model"]
+    changed = {name: not torch.equal(value, after[name])
+               for name, value in before.state_dict().items()}
+    assert not any(c for name, c in changed.items() if not name.startswith("segmenter."))
+    seg = [c for name, c in changed.items() if name.startswith("segmenter.")]
+    # (at 32 px the stride-32 memory is one token, so a few attention weights get no gradient)
+    assert sum(seg) > 0.8 * len(seg)
+
+
+def test_max_minutes_stops_early_and_exports_the_steps_done(tmp_path):
+    run(_cfg(tmp_path, "trainer.max_steps=50", "trainer.max_minutes=1e-6"))
+    assert load_training_checkpoint(tmp_path / "last.pt")["step"] == 1
+    assert load_model(tmp_path / "model.safetensors").info["steps"] == 1
+
+
+def test_init_from_and_num_queries(tmp_path):
+    run(_cfg(tmp_path / "a", "trainer.max_steps=1", "model.num_queries=5"))
+    src = load_model(tmp_path / "a" / "model.safetensors")
+    assert src.segmenter.num_queries == 5 and src.config["num_queries"] == 5
+    run(_cfg(tmp_path / "b", "trainer.max_steps=1", "model.num_queries=5", "loss.gan=false",
+             "trainer.lr=0", f"trainer.init_from={tmp_path / 'a' / 'model.safetensors'}"))
+    dst = load_model(tmp_path / "b" / "model.safetensors")
+    for (name, a), b in zip(src.state_dict().items(), dst.state_dict().values(), strict=True):
+        if "running" not in name and "num_batches" not in name:
+            assert torch.equal(a, b), name  # lr = 0: the weights are the ones started from
+
+
+def test_crops_keep_labels_aligned_and_freeze_keeps_the_segmenter(tmp_path):
+    from train.data import crop_batch
+
+    labels = torch.arange(2 * 12 * 12).reshape(2, 12, 12)
+    images = labels[:, None].float().expand(2, 3, 12, 12) / 1000
+    ci, cl = crop_batch(images, labels, 5, torch.Generator().manual_seed(0))
+    assert ci.shape == (2, 3, 5, 5) and cl.shape == (2, 5, 5) and cl.dtype == labels.dtype
+    assert torch.equal((ci[:, 0] * 1000).round().long(), cl)  # same window in both
+    assert crop_batch(images, None, None, torch.Generator())[0] is images
+
+    cfg = _cfg(tmp_path, "trainer.max_steps=1", "model.image_size=48", "data.crop=32",
+               "trainer.freeze=[segmenter]",
+               "loss.mask_supervision=gt")
+    torch.manual_seed(cfg.seed)
+    from neuraltex.model import build_model
+
+    before = build_model({"preset": "tiny"}).state_dict()
+    run(cfg)
+    after = load_training_checkpoint(tmp_path / "last.pt")["modules"]["model"]
+    for name, value in before.items():
+        if name.startswith("segmenter."):
+            assert torch.equal(value, after[name]), name
+    assert not torch.equal(before["generator.fc.weight"], after["generator.fc.weight"])

@@ -59,3 +59,19 @@ def _collate(items: list[dict]) -> dict:
     if all("mask" in it for it in items):
         out["mask"] = torch.stack([it["mask"] for it in items])
     return out
+
+
+def crop_batch(images: torch.Tensor, labels: torch.Tensor | None, size: int | None,
+               generator: torch.Generator) -> tuple[torch.Tensor, torch.Tensor | None]:
+    """One random size x size crop per image (and its label map): training on crops keeps the
+    textons at the scale of the full images while the step costs a crop's pixels.
+    images (B, 3, H, W), labels (B, H, W) or None."""
+    from neuraltex.discriminators import random_crops
+
+    if not size or size >= min(images.shape[-2:]):
+        return images, labels
+    stack = images if labels is None else torch.cat([images, labels[:, None].to(images)], 1)
+    out = random_crops(stack, size, 1, generator=generator)  # (B, 3 [+ 1], size, size)
+    if labels is None:
+        return out, None
+    return out[:, :3], out[:, 3].round().to(labels.dtype)

@@ -23,9 +23,10 @@ from neuraltex.checkpoint import (
     save_training_checkpoint,
     set_rng_state,
 )
+from neuraltex.consistency import ConsistencyWeights
 from neuraltex.losses import ReconstructionLoss
 from neuraltex.model import build_model
-from train.data import batches, build_dataset
+from train.data import batches, build_dataset, crop_batch
 from train.logging import Logger
 from train.objective import CriticObjective, GeneratorObjective, Options
 from train.schedule import scheduled
@@ -53,8 +54,10 @@ def _device(cfg: DictConfig, rank: int) -> torch.device:
 
 def model_config(cfg: DictConfig) -> dict:
     m = cfg.model
-    return {"preset": m.preset, "image_size": m.image_size, "estimation_size": m.estimation_size,
-            "eps": m.eps, "temperature": m.temperature, "cutoff": m.cutoff}
+    return {"preset": m.preset, "num_queries": m.get("num_queries"),
+            "anchor_prior": m.get("anchor_prior"), "image_size": m.image_size,
+            "estimation_size": m.estimation_size, "eps": m.eps, "temperature": m.temperature,
+            "cutoff": m.cutoff}
 
 
 def run(cfg: DictConfig) -> dict[str, float]:
@@ -70,16 +73,21 @@ def run(cfg: DictConfig) -> dict[str, float]:
     options = Options(equivariance=L.equivariance, reshuffle=L.reshuffle, gan=L.gan,
                       mask_supervision=L.mask_supervision, reshuffle_gamma=L.reshuffle_gamma,
                       crop_size=min(critics_p.crop_size, cfg.model.image_size),
-                      num_crops=critics_p.num_crops)
+                      num_crops=critics_p.num_crops,
+                      csis_weights=ConsistencyWeights(**L.csis_lambda),
+                      csis_reduce=L.csis_reduce)
     recon = ReconstructionLoss(L.w_l1, L.w_lpips, L.lpips_backbone)
     critics = CriticObjective(critics_d, critics_p, options, L.r1_every, L.r1_gamma_d,
                               L.r1_gamma_dp).to(device)
     gen = GeneratorObjective(model, recon, critics, options).to(device)
     T = cfg.trainer
-    opt_g = torch.optim.Adam(model.parameters(), lr=T.lr, betas=tuple(T.betas))
+    for name in T.freeze or ():  # e.g. [segmenter]: fine-tune the rest around a fixed E_s
+        getattr(model, name).requires_grad_(False)
+    trainable = [p for p in model.parameters() if p.requires_grad]
+    opt_g = torch.optim.Adam(trainable, lr=T.lr, betas=tuple(T.betas))
     opt_d = torch.optim.Adam(critics.parameters(), lr=T.d_lr, betas=tuple(T.betas))
 
-    start = 0
+    start, wall_before = 0, 0.0
     resume = run_dir / "last.pt" if T.resume == "auto" else T.resume
     if resume and Path(resume).exists():
         ck = load_training_checkpoint(resume)
@@ -89,6 +97,9 @@ def run(cfg: DictConfig) -> dict[str, float]:
         opt_d.load_state_dict(ck["optimizers"]["d"])
         set_rng_state(ck["rng"])
         start = ck["step"]
+        wall_before = float(ck.get("extra", {}).get("wall_s", 0.0))
+    elif T.init_from:
+        model.load_state_dict(_init_weights(T.init_from))
 
     gen_step = DDP(gen, find_unused_parameters=True) if world > 1 else gen
     crit_step = DDP(critics, find_unused_parameters=True) if world > 1 else critics
@@ -100,26 +111,28 @@ def run(cfg: DictConfig) -> dict[str, float]:
     amp = bool(T.amp) and device.type == "cuda"
     logs: dict[str, float] = {}
     t0 = time.time()
+    done = start
     bar = tqdm(range(start, T.max_steps), initial=start, total=T.max_steps,
                disable=rank != 0, desc="train", dynamic_ncols=True)
     for step in bar:
         g = torch.Generator().manual_seed(int(cfg.seed) * 1_000_003 + rank * 7919 + step)
         batch = next(data)
-        images = batch["image"].to(device)
-        labels = batch.get("mask")
+        images, labels = crop_batch(batch["image"], batch.get("mask"), cfg.data.crop, g)
+        images = images.to(device)
         labels = _labels(labels, images, L.mask_supervision, device)
         w = {k: scheduled(L[f"w_{k}"] if k != "patch_size" else L.patch_size, step,
                           T.schedule_scale) for k in _WEIGHTS}
         existence = "all" if step < L.existence_warmup * T.schedule_scale else "sample"
+        segmenter_only = step < L.segmenter_warmup * T.schedule_scale
 
         critics.requires_grad_(False)
         with torch.autocast(device.type, dtype=torch.bfloat16, enabled=amp):
-            out = gen_step(images, labels, w, existence, g)
+            out = gen_step(images, labels, w, existence, g, segmenter_only)
         opt_g.zero_grad(set_to_none=True)
         out.loss.backward()
         opt_g.step()
         logs = dict(out.logs)
-        if options.gan:
+        if options.gan and not segmenter_only:
             critics.requires_grad_(True)
             with torch.autocast(device.type, dtype=torch.bfloat16, enabled=amp):
                 d_loss, d_logs = crit_step(images, out.recon.detach(),
@@ -130,27 +143,64 @@ def run(cfg: DictConfig) -> dict[str, float]:
             opt_d.step()
             logs.update(d_logs)
         done = step + 1
-        bar.set_postfix(recon=f"{logs['recon']:.3f}", eff=f"{logs['diag/effective']:.1f}",
-                        l1=f"{logs['diag/l1']:.3f}/{logs['diag/l1_constant']:.3f}")
+        out_of_time = _out_of_time(T.max_minutes, t0, world, device)
+        bar.set_postfix(_progress(logs))
         if done % T.log_every == 0 or done == T.max_steps:
             logger.scalars(done, logs | {f"w/{k}": v for k, v in w.items()})
         if done % T.image_every == 0 or done == T.max_steps:
             logger.images(done, images, out)
-        if rank == 0 and (done % T.ckpt_every == 0 or done == T.max_steps):
+        if rank == 0 and (done % T.ckpt_every == 0 or done == T.max_steps or out_of_time):
             save_training_checkpoint(
                 run_dir / "last.pt", step=done, config=OmegaConf.to_container(cfg, resolve=True),
                 modules={"model": model.state_dict(), "critics": critics.state_dict()},
-                optimizers={"g": opt_g.state_dict(), "d": opt_d.state_dict()})
+                optimizers={"g": opt_g.state_dict(), "d": opt_d.state_dict()},
+                extra={"wall_s": wall_before + time.time() - t0})
+        if out_of_time:  # every rank measures its own clock; rank 0 decides for all
+            break
     if rank == 0 and T.export:
-        info = {"steps": T.max_steps, "wall_s": round(time.time() - t0, 1),
+        info = {"steps": done, "wall_s": round(wall_before + time.time() - t0, 1),
                 "lpips_backbone": logger.backbone, "mask_supervision": L.mask_supervision,
                 "data": OmegaConf.to_container(cfg.data, resolve=True), "world_size": world,
-                "device": device.type}
+                "device": device.type, "loss": OmegaConf.to_container(L, resolve=True),
+                "freeze": list(T.freeze or ()), "batch_size": T.batch_size,
+                "schedule_scale": T.schedule_scale, "threads": torch.get_num_threads()}
+        if T.init_from and str(T.init_from).endswith(".safetensors"):
+            from neuraltex.checkpoint import load_exported_model
+
+            info["init_from"] = {"path": str(T.init_from),
+                                 "info": load_exported_model(T.init_from)[2]}
         export_model(run_dir / T.export, model.state_dict(), model_config(cfg), info)
     logger.close()
     if world > 1:
         dist.barrier()
     return logs
+
+
+def _progress(logs: dict[str, float]) -> dict[str, str]:
+    out = {k: f"{logs[k]:.3f}" for k in ("recon", "mask") if k in logs}
+    out["eff"] = f"{logs['diag/effective']:.1f}"
+    if "diag/l1" in logs:
+        out["l1"] = f"{logs['diag/l1']:.3f}/{logs['diag/l1_constant']:.3f}"
+    return out
+
+
+def _init_weights(path) -> dict:
+    """Model weights to start from: a training checkpoint (last.pt) or an inference export."""
+    if str(path).endswith(".safetensors"):
+        from neuraltex.checkpoint import load_exported_model
+
+        return load_exported_model(path)[0]
+    return load_training_checkpoint(path)["modules"]["model"]
+
+
+def _out_of_time(max_minutes, t0: float, world: int, device) -> bool:
+    """``trainer.max_minutes`` reached (rank 0's clock decides for every rank)."""
+    if not max_minutes:
+        return False
+    flag = torch.tensor([float(time.time() - t0 > 60 * max_minutes)], device=device)
+    if world > 1:
+        dist.broadcast(flag, src=0)
+    return bool(flag.item())
 
 
 def _labels(labels, images, mode: str, device) -> torch.Tensor | None:

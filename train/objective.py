@@ -17,8 +17,9 @@ from typing import NamedTuple
 import torch
 from torch import Tensor, nn
 
-from neuraltex.consistency import consistency_loss
+from neuraltex.consistency import ConsistencyWeights, consistency_loss
 from neuraltex.discriminators import random_crops
+from neuraltex.estimation import estimate_textons
 from neuraltex.losses import (
     ReconstructionLoss,
     compactness_loss,
@@ -29,7 +30,7 @@ from neuraltex.losses import (
     sliced_wasserstein_patches,
 )
 from neuraltex.mask_supervision import mask_supervision_loss
-from neuraltex.model import TextonAutoencoder
+from neuraltex.model import Encoded, TextonAutoencoder
 from neuraltex.reshuffle import soft_reshuffle
 from neuraltex.transforms import random_affine, warp_images
 
@@ -43,6 +44,8 @@ class Options:
     reshuffle_gamma: float = 0.5
     crop_size: int = 16
     num_crops: int = 8
+    csis_weights: ConsistencyWeights = ConsistencyWeights()
+    csis_reduce: str = "sum"  # sum (eq. 4.22) | mean over matched pairs
 
 
 class Outputs(NamedTuple):
@@ -69,8 +72,12 @@ class GeneratorObjective(nn.Module):
         return self._critics[0]
 
     def forward(self, images: Tensor, labels: Tensor | None, w: dict[str, float],
-                existence: str, g: torch.Generator) -> Outputs:
+                existence: str, g: torch.Generator, segmenter_only: bool = False) -> Outputs:
+        """eq. 4.24, or with ``segmenter_only`` the warm-up in which only E_s learns the
+        given segments (mask supervision gt or pseudo) and nothing is decoded."""
         opt, model = self.options, self.model
+        if segmenter_only:
+            return self._segmenter_stage(images, labels, w)
         size = tuple(images.shape[-2:])
         enc = model.encode(images, existence=existence, generator=g)
         z = enc.textons
@@ -109,6 +116,23 @@ class GeneratorObjective(nn.Module):
         out.update(_diagnostics(images, recon.detach(), enc))
         return Outputs(total, out, recon, reshuffled, enc)
 
+    def _segmenter_stage(self, images: Tensor, labels: Tensor | None,
+                         w: dict[str, float]) -> Outputs:
+        """Warm-up: E_s learns the given segments; nothing is decoded (recon is blank)."""
+        if labels is None:
+            raise ValueError("a segmenter warm-up needs loss.mask_supervision=gt or pseudo")
+        masks = self.model.segment(images)  # (B, n, h, w)
+        mask = mask_supervision_loss(masks, labels)
+        total = w["mask"] * mask
+        with torch.no_grad():  # geometry only, for the diagnostics and the overlay pictures
+            B, _, h, wd = masks.shape
+            blank = masks.new_zeros(B, 1, h, wd)
+            z = estimate_textons(masks, blank, blank.expand(B, 2, h, wd), existence="round")
+        enc = Encoded(z, masks.detach(), blank, blank)
+        logs = {"mask": float(mask.detach()), "total": float(total.detach())}
+        logs.update(_diagnostics(images, None, enc))
+        return Outputs(total, logs, torch.zeros_like(images), None, enc)
+
     def _equivariance(self, images: Tensor, enc, existence: str, g: torch.Generator):
         """L_csis (eqs. 4.21-4.23) between T(E(I)) and E(T(I)), and L'_R on T(I)."""
         model, z = self.model, enc.textons
@@ -120,7 +144,8 @@ class GeneratorObjective(nn.Module):
         masks_t, valid_m = warp_images(enc.masks, T)
         inside = ((z_t.mu >= 0) & (z_t.mu <= torch.tensor(z.canvas).to(z_t.mu))).all(-1)
         csis = consistency_loss(z_t, enc_t.textons, masks_t * valid_m, enc_t.masks * valid_m,
-                                valid=inside)
+                                valid=inside, weights=self.options.csis_weights,
+                                reduce=self.options.csis_reduce)
         recon_t = self.recon(model.decode(z_t, tuple(images.shape[-2:])), warped, mask=valid)
         return csis, recon_t
 
@@ -160,7 +185,7 @@ class CriticObjective(nn.Module):
 
 
 @torch.no_grad()
-def _diagnostics(images: Tensor, recon: Tensor, enc) -> dict[str, float]:
+def _diagnostics(images: Tensor, recon: Tensor | None, enc) -> dict[str, float]:
     """Numbers that expose the three degenerate phases of CPU training (issue 4): a fixed
     partition (masks identical across images), collapse (1-2 queries take all pixels), a dead
     start (no effective textons), and whether the decoder beats a constant image."""
@@ -173,10 +198,12 @@ def _diagnostics(images: Tensor, recon: Tensor, enc) -> dict[str, float]:
         diversity = 0.0
     used = [int(torch.unique(lab).numel()) for lab in labels]
     const = (images - images.mean(dim=(0, 2, 3), keepdim=True)).abs().mean()
-    return {
+    out = {
         "diag/mask_diversity": diversity,
         "diag/queries_used": sum(used) / B,
-        "diag/effective": float(enc.textons.num_effective().float().mean()),
-        "diag/l1": float((recon - images).abs().mean()),
+        "diag/effective": float((enc.textons.p > 0.5).sum(-1).float().mean()),  # as inference
         "diag/l1_constant": float(const),
     }
+    if recon is not None:
+        out["diag/l1"] = float((recon - images).abs().mean())
+    return out

@@ -1,0 +1,61 @@
+"""The shipped default model: loads offline, encodes plausibly, refuses tampered weights."""
+
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+import torch
+
+from neuraltex.checkpoint import CheckpointError
+from neuraltex.cli import DEFAULT_MODEL, main
+from neuraltex.data.splits import benchmark_split
+from neuraltex.model import load_model
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+@pytest.fixture(scope="module")
+def model():
+    torch.set_num_threads(1)
+    return load_model(DEFAULT_MODEL)
+
+
+def test_shipped_weights_are_small_and_describe_their_training(model):
+    assert DEFAULT_MODEL.stat().st_size <= 30 * 2**20
+    assert model.info["steps"] > 0 and "init_from" in model.info  # two stages, MODEL.md
+    assert model.segmenter.num_queries == 100
+
+
+def test_version_and_model_info_name_the_default_model(capsys):
+    out = subprocess.run([sys.executable, "-m", "neuraltex.cli", "--version"], cwd=ROOT,
+                         capture_output=True, text=True, timeout=120).stdout
+    assert "neuraltex" in out and "default model: preset tiny, 100 queries" in out
+    assert main(["model-info"]) == 0
+    assert "(shipped default)" in capsys.readouterr().out
+
+
+def test_encoding_an_easy_benchmark_image_gives_a_plausible_texton_count(model):
+    items = [it for it in benchmark_split() if it.family == "discs" and it.size == 128][:3]
+    for it in items:
+        s = it.load()
+        truth = len(np.unique(s.mask)) - 1
+        x = torch.from_numpy(s.image).permute(2, 0, 1).float()[None]
+        with torch.no_grad():
+            n = int((model.encode(x).textons.p > 0.5).sum())
+        assert 0.5 * truth <= n <= 2 * truth, (it.index, n, truth)
+
+
+def test_tampered_weights_are_rejected(tmp_path, capsys):
+    bad = tmp_path / "tampered.safetensors"
+    shutil.copy(DEFAULT_MODEL, bad)
+    data = bytearray(bad.read_bytes())
+    data[-100] ^= 0xFF  # a byte of the last tensor
+    bad.write_bytes(bytes(data))
+    with pytest.raises(CheckpointError, match="checksum"):
+        load_model(bad)
+    assert main(["model-info", "--checkpoint", str(bad)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and "checksum" in err
