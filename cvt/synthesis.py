@@ -196,17 +196,34 @@ def depth_order(placements: list[Placement], out: Samples, m: Matches, inp: Samp
     return [placements[k] for k in order_by_preferences(sub, key)]
 
 
-def _run_level(li: int, lv: Level, inp: Samples, out: Samples, in_box, out_box,
-               cfg: SynthesisConfig, gen, res: SynthesisResult, on_iteration):
-    t = time.perf_counter()
-    dist = DistanceParams(lv.delta, cfg.w_f, cfg.c_out)
+def _input_index(inp: Samples, in_box, lv: Level, cfg: SynthesisConfig):
+    """Input neighborhoods, allowed centers, their lookup grid and the first search window."""
     in_nbr = neighborhoods(inp.pos, lv.radius + cfg.in_margin * lv.delta,
                            cfg.k_max + cfg.k_in_extra)
     valid = _valid_centers(inp, in_box, cfg.interior_margin * lv.radius)
     grid = NearestGrid(inp.pos, valid, in_box, lv.delta / 3)
+    window0 = max(in_box[2] - in_box[0], in_box[3] - in_box[1]) / 2
+    return in_nbr, valid, grid, window0
+
+
+def nearest_neighborhoods(out: Samples, inp: Samples, in_box, lv: Level, cfg: SynthesisConfig,
+                          passes: int, gen: torch.Generator) -> Matches:
+    """The search step alone, from a random field: each output neighborhood's nearest input
+    neighborhood by eq. 2 (for evaluating any output, e.g. a baseline's)."""
+    in_nbr, valid, grid, window0 = _input_index(inp, in_box, lv, cfg)
+    sp = pair_space(out.pos, neighborhoods(out.pos, lv.radius, cfg.k_max), inp.pos, in_nbr,
+                    chi2_table(out.feat, inp.feat), DistanceParams(lv.delta, cfg.w_f, cfg.c_out))
+    return patchmatch(sp, grid, _start_field(out, valid, gen), SearchParams(passes=passes),
+                      window0, gen)
+
+
+def _run_level(li: int, lv: Level, inp: Samples, out: Samples, in_box, out_box,
+               cfg: SynthesisConfig, gen, res: SynthesisResult, on_iteration):
+    t = time.perf_counter()
+    dist = DistanceParams(lv.delta, cfg.w_f, cfg.c_out)
+    in_nbr, valid, grid, window0 = _input_index(inp, in_box, lv, cfg)
     table = chi2_table(out.feat, inp.feat)  # (N_out, N_in), rows refreshed when clusters change
     field_ = _start_field(out, valid, gen)
-    window0 = max(in_box[2] - in_box[0], in_box[3] - in_box[1]) / 2
     _tick(res, li, "search", t)
     m = votes = None
     for it in range(cfg.iterations):
