@@ -23,6 +23,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
+from cvt.baselines import METHODS, method_config  # noqa: E402
 from cvt.sampling import sample_exemplar  # noqa: E402
 from cvt.svg import load_svg  # noqa: E402
 from cvt.synthesis import STEPS, SynthesisConfig, synthesize  # noqa: E402
@@ -59,12 +60,14 @@ def main() -> None:
     ap.add_argument("--iterations", type=int, default=7)
     ap.add_argument("--threads", type=int, default=1)
     ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--method", choices=[m for m in METHODS if m != "random"], default="full")
     ap.add_argument("--profile", action="store_true", help="cProfile the slowest run")
     args = ap.parse_args()
     folder = ROOT / "cvt" / "exemplars"
     paths = [folder / f"{n}.svg" for n in args.names] or sorted(folder.glob("*.svg"))
-    cfg = SynthesisConfig(levels=args.levels, iterations=args.iterations, seed=args.seed,
-                          threads=args.threads)
+    cfg = method_config(args.method, SynthesisConfig(levels=args.levels,
+                                                     iterations=args.iterations, seed=args.seed,
+                                                     threads=args.threads))
     head = ["exemplar", "scale", "elements in/out", "samples per level (out)"]
     head += [f"{s} s" for s in STEPS] + ["total s", "clustering share per level",
                                           "final energy"]

@@ -72,7 +72,8 @@ def summary(results: dict[tuple[str, str], dict], names, methods) -> str:
                 wins[m][c] += 1 / len(winners)
     rows = []
     for m in methods:
-        mean = [np.nanmean([results[(n, m)][c] for n in names]) for c in COLUMNS]
+        vals = [[results[(n, m)][c] for n in names] for c in COLUMNS]
+        mean = [np.nanmean(v) if not np.isnan(v).all() else float("nan") for v in vals]
         rows.append([m] + [f"{_fmt(v)} ({wins[m][c]:.3g})" for v, c in zip(mean, COLUMNS,
                                                                              strict=True)])
     return _table(["method"] + [f"{c} {'↑' if c in HIGHER_IS_BETTER else '↓'}" for c in COLUMNS],
