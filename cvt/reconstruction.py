@@ -1,11 +1,8 @@
-"""Reconstruction v0: each output cluster becomes a translated copy of one input element.
+"""Reconstruction (seed 000 sec. 6.6): each output cluster becomes a translated input element.
 
-For an output cluster C_o, the candidate input clusters are those its samples were matched to
-(mu_s). Each candidate C_i is translated onto C_o by the mean offset of the matched pairs
-(eq. 17) and scored by the shape distance (eq. 16): an optimal one-to-one matching of the
-samples plus eps per unmatched sample, normalized by eps = 2 delta. The best candidate (eq. 15)
-gives the element and its translation. Depth order and filtering by shape energy come with the
-clustering step (issue 8); here elements are drawn in input z order.
+The element is the one of the candidate input cluster that minimizes the shape energy (eq. 15,
+shape_energy.py), translated by eq. 17. Filtering drops elements whose cluster shape energy is
+high, E'_s(C_o) > |C_o|: broken or stray clusters. Depth order (depth.py) sorts the result.
 """
 
 from __future__ import annotations
@@ -14,11 +11,10 @@ from dataclasses import dataclass
 
 import numpy as np
 import torch
-from scipy.optimize import linear_sum_assignment
-from scipy.spatial.distance import cdist
 
 from cvt.sampling import Samples
 from cvt.search import Matches
+from cvt.shape_energy import ShapeEnergy
 
 
 @dataclass(frozen=True)
@@ -27,43 +23,36 @@ class Placement:
     element: int  # input element (== input cluster id)
     dx: float
     dy: float
-    energy: float  # shape distance d_C (eq. 16) of the chosen candidate
+    energy: float  # shape energy E'_s of the output cluster (eq. 15)
     z: int  # z-index of the input element
+    size: int = 0  # number of samples in the output cluster, |C_o|
 
 
-def shape_distance(p_out: np.ndarray, p_in: np.ndarray, eps: float) -> float:
-    """Eq. 16 for already translated input samples. Shape: (A, 2), (B, 2) -> scalar."""
-    if len(p_out) == 0 or len(p_in) == 0:
-        return abs(len(p_out) - len(p_in)) * 1.0
-    d = cdist(p_out, p_in)
-    r, c = linear_sum_assignment(d)
-    return float(d[r, c].sum()) / eps + abs(len(p_out) - len(p_in))
+def reconstruct(out: Samples, inp: Samples, m: Matches, delta: float,
+                shape: ShapeEnergy | None = None) -> list[Placement]:
+    """Pick an input element and translation for every output cluster (eqs. 15-17).
 
-
-def reconstruct(out: Samples, inp: Samples, m: Matches, delta: float) -> list[Placement]:
-    """Pick an input element and translation for every output cluster (eqs. 15-17)."""
-    eps = 2 * delta
-    o_pos, i_pos = out.pos.double().numpy(), inp.pos.double().numpy()
-    o_cl, i_cl = out.cluster.numpy(), inp.cluster.numpy()
-    mu = m.center.numpy()
-    in_members = {int(c): np.flatnonzero(i_cl == c) for c in np.unique(i_cl)}
+    Returned in input z order (ties by cluster id); ``shape`` may be a ShapeEnergy built for
+    the same positions and field (its memo is reused).
+    """
+    shape = shape or ShapeEnergy(out.pos, m.center, inp.pos, inp.cluster, delta)
+    o_cl = out.cluster.numpy()
+    order = np.argsort(o_cl, kind="stable")
+    ids, start = np.unique(o_cl[order], return_index=True)
+    first = {int(c): int(inp.element[inp.cluster == c][0]) for c in inp.cluster.unique()}
+    z_of = {int(c): int(inp.z[inp.cluster == c][0]) for c in inp.cluster.unique()}
     placements = []
-    for c in np.unique(o_cl):
-        mem = np.flatnonzero(o_cl == c)
-        src = i_cl[mu[mem]]  # input cluster each member is matched to
-        best = None
-        for ci in np.unique(src):
-            pairs = mem[src == ci]
-            shift = (o_pos[pairs] - i_pos[mu[pairs]]).mean(0)  # eq. 17
-            d = shape_distance(o_pos[mem], i_pos[in_members[int(ci)]] + shift, eps)
-            if best is None or d < best[0]:
-                best = (d, int(ci), shift)
-        d, ci, shift = best
-        elem = int(inp.element[in_members[ci][0]])
-        placements.append(Placement(int(c), elem, float(shift[0]), float(shift[1]), d,
-                                    int(inp.z[in_members[ci][0]])))
+    for c, mem in zip(ids.tolist(), np.split(order, start[1:]), strict=True):
+        fit = shape(mem)
+        placements.append(Placement(c, first[fit.cluster], *fit.shift, fit.energy,
+                                    z_of[fit.cluster], len(mem)))
     placements.sort(key=lambda p: (p.z, p.cluster))
     return placements
+
+
+def filter_placements(placements: list[Placement]) -> list[Placement]:
+    """Sec. 6.6: drop elements with high shape energy, E'_s(C_o) > |C_o|."""
+    return [p for p in placements if p.energy <= p.size]
 
 
 def box_iou(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -80,9 +69,9 @@ def merge_duplicates(placements: list[Placement], boxes: np.ndarray,
                      floor: float = 0.15) -> list[Placement]:
     """Drop placements that overlap a better one more than any two input elements overlap.
 
-    A stopgap for v0: clusters cut at patch borders each rebuild a whole element, stacking
-    near-copies. The clustering step (issue 8) fixes the cause. ``boxes`` (E, 4) are the input
-    elements' bounding boxes.
+    The no-clustering baseline's stopgap: clusters cut at patch borders each rebuild a whole
+    element, stacking near-copies; the clustering step fixes the cause. ``boxes`` (E, 4) are
+    the input elements' bounding boxes.
     """
     if len(placements) < 2:
         return placements

@@ -1,7 +1,10 @@
-"""The synthesis loop: init -> (search, assignment) x iterations x levels -> reconstruction.
+"""The synthesis loop: init -> (search, assignment, clustering) x iterations x levels ->
+reconstruction, filtering and depth order (seed 000 sec. 6).
 
-Seed 000 sec. 6 without the clustering step (issue 8). Levels go coarse to fine; each level
-after the first starts from the previous level's reconstruction, re-sampled at the finer delta.
+Levels go coarse to fine; each level after the first starts from the previous level's
+reconstruction, re-sampled at the finer delta. ``SynthesisConfig.clustering`` picks the
+clustering step: the paper's greedy one ("greedy", sec. 6.5), the comparison baseline's
+spectral clustering ("spectral", sec. 7.2), or none (fixed ids, "none").
 """
 
 from __future__ import annotations
@@ -14,15 +17,21 @@ import numpy as np
 import torch
 
 from cvt.assignment import add_missing, assign_positions
+from cvt.clustering import ClusteringParams, ClusteringStats, changed_samples, cluster_step
+from cvt.depth import cluster_preferences, order_by_preferences
 from cvt.initialization import patch_init, random_init
 from cvt.neighborhood import DistanceParams, distance_batched, neighborhoods, pair_space
-from cvt.reconstruction import Placement, merge_duplicates, reconstruct, upsample
+from cvt.pair_votes import PairVotes, pair_votes
+from cvt.reconstruction import Placement, filter_placements, merge_duplicates, reconstruct, upsample
 from cvt.sampling import DEFAULT_DELTAS, DEFAULT_RADII, Level, Samples, hierarchy, sample_exemplar
 from cvt.search import Matches, NearestGrid, SearchParams, patchmatch
-from cvt.shape_context import chi2_table
+from cvt.shape_context import chi2_table, shape_contexts
+from cvt.shape_energy import ShapeEnergy
+from cvt.spectral import spectral_clusters
 from cvt.svg import Exemplar, to_svg
 
-STEPS = ("init", "search", "assignment", "reconstruction")
+STEPS = ("init", "search", "assignment", "clustering", "reconstruction")
+CLUSTERINGS = ("greedy", "spectral", "none")
 
 
 @dataclass(frozen=True)
@@ -49,11 +58,15 @@ class SynthesisConfig:
     backtrack: bool = False
     add_samples: bool = True
     # Existence may start a new cluster only with this share of its element's samples at once.
-    # Without the clustering step (issue 8) to merge them, fresh one- or two-sample clusters
-    # each rebuild a whole element and over-fill the output (0: ~1.3x the expected element
-    # count); 1.0 only completes existing clusters, which leaves holes.
+    # Without a clustering step to merge them, fresh one- or two-sample clusters each rebuild a
+    # whole element and over-fill the output (0: ~1.3x the expected element count); 1.0 only
+    # completes existing clusters, which leaves holes.
     new_cluster_share: float = 0.5
-    merge_duplicates: bool = True  # v0 stopgap until the clustering step (issue 8)
+    clustering: str = "greedy"  # "greedy" (sec. 6.5), "spectral" (sec. 7.2), "none"
+    cluster: ClusteringParams = ClusteringParams()  # w_l, w_s, lambda, operators
+    depth: bool = True  # depth order of the output (sec. 6.4); else input z order
+    filter_shapes: bool = True  # drop elements with E'_s(C_o) > |C_o| (sec. 6.6)
+    merge_duplicates: bool = False  # the no-clustering stopgap: drop overlapping copies
     seed: int = 0
     threads: int = 1  # torch threads; more only pays off on an idle machine with big outputs
 
@@ -78,7 +91,9 @@ class SynthesisResult:
     matches: list[Matches] = field(default_factory=list)  # last search of each level
     energies: list[tuple[int, int, float]] = field(default_factory=list)
     timings: dict[str, float] = field(default_factory=lambda: dict.fromkeys(STEPS, 0.0))
+    level_timings: list[dict[str, float]] = field(default_factory=list)  # per level, per step
     samples_per_level: list[int] = field(default_factory=list)
+    clustering: list[tuple[int, int, ClusteringStats]] = field(default_factory=list)
 
 
 def _valid_centers(inp: Samples, box, margin: float) -> torch.Tensor:
@@ -101,6 +116,8 @@ def synthesize(exemplar: Exemplar, size: tuple[float, float], config: SynthesisC
                on_iteration: Callable[[LevelState], None] | None = None) -> SynthesisResult:
     """Synthesize a ``size`` = (width, height) pattern (exemplar user units) from ``exemplar``."""
     cfg = config or SynthesisConfig()
+    if cfg.clustering not in CLUSTERINGS:
+        raise ValueError(f"clustering must be one of {CLUSTERINGS}, got {cfg.clustering!r}")
     threads = torch.get_num_threads()
     torch.set_num_threads(cfg.threads)
     try:
@@ -116,6 +133,7 @@ def _synthesize(exemplar: Exemplar, size, cfg: SynthesisConfig, on_iteration) ->
     in_box = (vx, vy, vx + vw, vy + vh)
     out_box = (vx, vy, vx + size[0], vy + size[1])
     res = SynthesisResult([], size, [], [])
+    res.level_timings = [dict.fromkeys(STEPS, 0.0) for _ in levels]
     boxes = np.stack([e.bbox for e in exemplar.elements])  # (E, 4)
 
     t = time.perf_counter()
@@ -125,51 +143,109 @@ def _synthesize(exemplar: Exemplar, size, cfg: SynthesisConfig, on_iteration) ->
         out = random_init(res.inputs[0], in_box, out_box, gen)
     else:
         out = patch_init(res.inputs[0], in_box, out_box, 2 * levels[0].radius, gen)
-    res.timings["init"] += time.perf_counter() - t
+    _tick(res, 0, "init", t)
 
     for li, lv in enumerate(levels):
         inp = res.inputs[li]
-        out, m = _run_level(li, lv, inp, out, in_box, out_box, cfg, gen, res, on_iteration)
+        out, m, votes = _run_level(li, lv, inp, out, in_box, out_box, cfg, gen, res,
+                                   on_iteration)
         t = time.perf_counter()
-        res.placements = reconstruct(out, inp, m, lv.delta)
+        shape = ShapeEnergy(out.pos, m.center, inp.pos, inp.cluster, lv.delta)
+        res.placements = reconstruct(out, inp, m, lv.delta, shape)
+        if cfg.filter_shapes:
+            res.placements = filter_placements(res.placements)
         if cfg.merge_duplicates:
             res.placements = merge_duplicates(res.placements, boxes)
         res.outputs.append(out)
         res.matches.append(m)
         res.samples_per_level.append(len(out))
-        if li + 1 < len(levels) and res.placements:
+        last = li + 1 == len(levels) or not res.placements
+        if last and cfg.depth:
+            res.placements = depth_order(res.placements, out, m, inp, lv.delta, votes)
+        if not last:
             out = upsample(res.placements, res.inputs[li + 1])
-        elif li + 1 < len(levels):
-            break  # nothing left to refine
-        res.timings["reconstruction"] += time.perf_counter() - t
+        _tick(res, li, "reconstruction", t)
+        if last:
+            break
     return res
+
+
+def _tick(res: SynthesisResult, level: int, step: str, start: float) -> None:
+    dt = time.perf_counter() - start
+    res.timings[step] += dt
+    res.level_timings[level][step] += dt
+
+
+def depth_order(placements: list[Placement], out: Samples, m: Matches, inp: Samples,
+                delta: float, votes: PairVotes | None = None) -> list[Placement]:
+    """Placements sorted bottom to top by Order-By-Preferences over f_C (eqs. 5-8).
+
+    Clusters without preferences keep their input z order relative to each other.
+    """
+    if len(placements) < 2:
+        return placements
+    if votes is None:
+        votes = pair_votes(m, out.pos, inp.cluster, inp.z, 2 * delta)
+    ids, local = torch.unique(out.cluster, return_inverse=True)
+    pref = cluster_preferences(votes, out.pos, local, len(ids), delta)
+    row = {int(c): k for k, c in enumerate(ids.tolist())}
+    rows = [row[p.cluster] for p in placements]
+    sub = pref[np.ix_(rows, rows)]
+    key = np.array([(p.z, p.cluster) for p in placements], dtype=float)
+    key = np.lexsort((key[:, 1], key[:, 0])).argsort()  # rank in input z order
+    return [placements[k] for k in order_by_preferences(sub, key)]
+
+
+def _input_index(inp: Samples, in_box, lv: Level, cfg: SynthesisConfig):
+    """Input neighborhoods, allowed centers, their lookup grid and the first search window."""
+    in_nbr = neighborhoods(inp.pos, lv.radius + cfg.in_margin * lv.delta,
+                           cfg.k_max + cfg.k_in_extra)
+    valid = _valid_centers(inp, in_box, cfg.interior_margin * lv.radius)
+    grid = NearestGrid(inp.pos, valid, in_box, lv.delta / 3)
+    window0 = max(in_box[2] - in_box[0], in_box[3] - in_box[1]) / 2
+    return in_nbr, valid, grid, window0
+
+
+def nearest_neighborhoods(out: Samples, inp: Samples, in_box, lv: Level, cfg: SynthesisConfig,
+                          passes: int, gen: torch.Generator) -> Matches:
+    """The search step alone, from a random field: each output neighborhood's nearest input
+    neighborhood by eq. 2 (for evaluating any output, e.g. a baseline's)."""
+    in_nbr, valid, grid, window0 = _input_index(inp, in_box, lv, cfg)
+    sp = pair_space(out.pos, neighborhoods(out.pos, lv.radius, cfg.k_max), inp.pos, in_nbr,
+                    chi2_table(out.feat, inp.feat), DistanceParams(lv.delta, cfg.w_f, cfg.c_out))
+    return patchmatch(sp, grid, _start_field(out, valid, gen), SearchParams(passes=passes),
+                      window0, gen)
 
 
 def _run_level(li: int, lv: Level, inp: Samples, out: Samples, in_box, out_box,
                cfg: SynthesisConfig, gen, res: SynthesisResult, on_iteration):
     t = time.perf_counter()
     dist = DistanceParams(lv.delta, cfg.w_f, cfg.c_out)
-    in_nbr = neighborhoods(inp.pos, lv.radius + cfg.in_margin * lv.delta,
-                           cfg.k_max + cfg.k_in_extra)
-    valid = _valid_centers(inp, in_box, cfg.interior_margin * lv.radius)
-    grid = NearestGrid(inp.pos, valid, in_box, lv.delta / 3)
-    table = chi2_table(out.feat, inp.feat)  # (N_out, N_in), features fixed within a level
+    in_nbr, valid, grid, window0 = _input_index(inp, in_box, lv, cfg)
+    table = chi2_table(out.feat, inp.feat)  # (N_out, N_in), rows refreshed when clusters change
     field_ = _start_field(out, valid, gen)
-    window0 = max(in_box[2] - in_box[0], in_box[3] - in_box[1]) / 2
-    res.timings["search"] += time.perf_counter() - t
-    m = None
+    _tick(res, li, "search", t)
+    m = votes = None
     for it in range(cfg.iterations):
         t = time.perf_counter()
         out_nbr = neighborhoods(out.pos, lv.radius, cfg.k_max)
         params = SearchParams(passes=cfg.first_passes if it == 0 else cfg.passes)
         sp = pair_space(out.pos, out_nbr, inp.pos, in_nbr, table, dist)
         m = patchmatch(sp, grid, field_, params, window0, gen)
-        res.timings["search"] += time.perf_counter() - t
+        _tick(res, li, "search", t)
         t = time.perf_counter()
         new_pos = assign_positions(out.pos, m, inp.pos, huber=cfg.huber * lv.delta)
         if cfg.backtrack:
             new_pos = _backtrack(out.pos, new_pos, m, inp, in_nbr, table, dist, lv, cfg)
         out = out.with_(pos=new_pos)
+        _tick(res, li, "assignment", t)
+        t = time.perf_counter()
+        if cfg.clustering != "none":
+            votes = pair_votes(m, out.pos, inp.cluster, inp.z,
+                               max(cfg.cluster.lam, 2.0) * lv.delta)
+            out, table = _cluster(out, m, inp, votes, table, lv, cfg, gen, res, li, it)
+        _tick(res, li, "clustering", t)
+        t = time.perf_counter()
         field_ = m.center
         if cfg.add_samples and it + 1 < cfg.iterations:
             new = add_missing(out, m, inp, in_nbr, lv.delta, lv.radius, out_box,
@@ -178,11 +254,38 @@ def _run_level(li: int, lv: Level, inp: Samples, out: Samples, in_box, out_box,
                 out = out.cat(new)
                 table = torch.cat([table, chi2_table(new.feat, inp.feat)])
                 field_ = torch.cat([field_, new.source])
-        res.timings["assignment"] += time.perf_counter() - t
+        _tick(res, li, "assignment", t)
         res.energies.append((li, it, m.energy))
         if on_iteration is not None:
             on_iteration(LevelState(li, it, out, m, m.energy))
-    return out, m  # no samples are added after the last search, so m covers all of out
+    return out, m, votes  # no samples are added after the last search, so m covers all of out
+
+
+def _cluster(out: Samples, m: Matches, inp: Samples, votes: PairVotes, table, lv: Level,
+             cfg: SynthesisConfig, gen, res: SynthesisResult, li: int, it: int):
+    """One clustering step; shape contexts (and their chi2 rows) of changed clusters are
+    recomputed. Returns the new samples and chi2 table."""
+    if cfg.clustering == "greedy":
+        shape = ShapeEnergy(out.pos, m.center, inp.pos, inp.cluster, lv.delta)
+        labels, stats = cluster_step(out.pos, out.cluster, votes, shape, lv.delta, cfg.cluster)
+        res.clustering.append((li, it, stats))
+    else:  # sec. 7.2 baseline: k = |O| / |I| * |{C_i}| clusters
+        near = (out.pos[votes.a] - out.pos[votes.b]).norm(dim=1) < cfg.cluster.lam * lv.delta
+        v = votes.select(near)
+        k = round(len(out) / len(inp) * len(inp.cluster.unique()))
+        seed = int(torch.randint(2**31 - 1, (1,), generator=gen))
+        labels = torch.from_numpy(spectral_clusters(v.a.numpy(), v.b.numpy(), v.link.numpy(),
+                                                    len(out), max(k, 1), seed))
+    changed = changed_samples(out.cluster, labels)
+    out = out.with_(cluster=labels)
+    if changed.any():
+        idx = torch.nonzero(changed).flatten()
+        feat = out.feat.clone()
+        feat[idx] = shape_contexts(out.pos[idx], labels[idx])
+        out = out.with_(feat=feat)
+        table = table.clone()
+        table[idx] = chi2_table(feat[idx], inp.feat)
+    return out, table
 
 
 def _energy_at(pos, m: Matches, inp: Samples, in_nbr, table, dist, lv: Level, cfg) -> float:

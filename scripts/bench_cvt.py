@@ -5,7 +5,8 @@
     python scripts/bench_cvt.py --profile stars       # plus a cProfile of the slowest run
 
 Prints a Markdown table. Times are wall-clock seconds of one run (3 levels x 7 iterations by
-default) on this machine; set --threads to the cores you can actually use.
+default) on this machine; set --threads to the cores you can actually use. The clustering
+share is the clustering step's part of each level's time (seed 000 Table 2: ~10-25 %).
 """
 
 from __future__ import annotations
@@ -22,6 +23,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
+from cvt.baselines import METHODS, method_config  # noqa: E402
 from cvt.sampling import sample_exemplar  # noqa: E402
 from cvt.svg import load_svg  # noqa: E402
 from cvt.synthesis import STEPS, SynthesisConfig, synthesize  # noqa: E402
@@ -58,14 +60,17 @@ def main() -> None:
     ap.add_argument("--iterations", type=int, default=7)
     ap.add_argument("--threads", type=int, default=1)
     ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--method", choices=[m for m in METHODS if m != "random"], default="full")
     ap.add_argument("--profile", action="store_true", help="cProfile the slowest run")
     args = ap.parse_args()
     folder = ROOT / "cvt" / "exemplars"
     paths = [folder / f"{n}.svg" for n in args.names] or sorted(folder.glob("*.svg"))
-    cfg = SynthesisConfig(levels=args.levels, iterations=args.iterations, seed=args.seed,
-                          threads=args.threads)
+    cfg = method_config(args.method, SynthesisConfig(levels=args.levels,
+                                                     iterations=args.iterations, seed=args.seed,
+                                                     threads=args.threads))
     head = ["exemplar", "scale", "elements in/out", "samples per level (out)"]
-    head += [f"{s} s" for s in STEPS] + ["total s", "final energy"]
+    head += [f"{s} s" for s in STEPS] + ["total s", "clustering share per level",
+                                          "final energy"]
     print("| " + " | ".join(head) + " |")
     print("|" + "---|" * len(head))
     worst = None
@@ -73,7 +78,9 @@ def main() -> None:
         ex, s, res, total, prof = bench_one(p, args.scale, args.target, cfg, args.profile)
         row = [p.stem, f"{s:.2f}", f"{len(ex.elements)}/{len(res.placements)}",
                " / ".join(map(str, res.samples_per_level))]
-        row += [f"{res.timings[k]:.2f}" for k in STEPS] + [f"{total:.2f}",
+        share = " / ".join(f"{100 * t['clustering'] / max(sum(t.values()), 1e-9):.0f} %"
+                           for t in res.level_timings)
+        row += [f"{res.timings[k]:.2f}" for k in STEPS] + [f"{total:.2f}", share,
                                                            f"{res.energies[-1][2]:.2f}"]
         print("| " + " | ".join(row) + " |", flush=True)
         if prof and (worst is None or total > worst[0]):

@@ -89,3 +89,12 @@ def test_module_entry_point_reports_errors_in_one_line(tmp_path):
     r = _cvt("synthesize", bad, "-o", tmp_path / "o.svg", "--scale", "2")
     assert r.returncode == 2
     assert r.stderr.count("\n") == 1 and "DOCTYPE" in r.stderr
+
+
+def test_method_and_weight_flags(tmp_path, capsys):
+    out = tmp_path / "r.svg"
+    assert main(["synthesize", str(STARS), "-o", str(out), "--scale", "1.2", "--method",
+                 "random", "--quiet"]) == 0
+    assert out.read_text().count("<g transform=") > 10
+    assert main(["synthesize", str(STARS), "-o", str(out), "--scale", "2", "--w-l", "-1"]) == 2
+    assert "--w-l" in capsys.readouterr().err

@@ -1,0 +1,66 @@
+"""Pixels of vector patterns: whole-document renders (resvg) and per-element coverage masks
+(PIL polygons), both for the quantitative metrics."""
+
+from __future__ import annotations
+
+import io
+from dataclasses import dataclass
+
+import numpy as np
+from PIL import Image, ImageDraw
+
+from cvt.svg import Element
+
+
+def render_svg(text: str) -> np.ndarray:
+    """RGB render of SVG text on white, at the document's pixel size. Shape: -> (H, W, 3)
+    float in [0, 1]."""
+    import resvg_py
+
+    png = resvg_py.svg_to_bytes(svg_string=text, background="white", skip_system_fonts=True)
+    return np.asarray(Image.open(io.BytesIO(bytes(png))).convert("RGB"), dtype=np.float32) / 255
+
+
+@dataclass
+class Mask:
+    """Coverage of one placed element: a boolean crop and its top-left pixel."""
+
+    pixels: np.ndarray  # (h, w) bool
+    x0: int
+    y0: int
+
+    @property
+    def area(self) -> int:
+        return int(self.pixels.sum())
+
+
+def element_mask(element: Element, dx: float, dy: float, origin, scale: float) -> Mask:
+    """Pixels covered by an element translated by (dx, dy): filled rings (holes ignored) and
+    stroked outlines, at ``scale`` pixels per user unit, ``origin`` the user point of pixel 0."""
+    box = (element.bbox + [dx, dy, dx, dy] - np.r_[origin, origin]) * scale
+    x0, y0 = int(np.floor(box[0])) - 1, int(np.floor(box[1])) - 1
+    w, h = int(np.ceil(box[2])) - x0 + 2, int(np.ceil(box[3])) - y0 + 2
+    img = Image.new("1", (max(w, 1), max(h, 1)), 0)
+    draw = ImageDraw.Draw(img)
+    for shape in element.shapes:
+        for ring, closed in zip(shape.rings, shape.closed, strict=True):
+            pts = (ring + [dx, dy] - origin) * scale - [x0, y0]
+            xy = [tuple(p) for p in pts.tolist()]
+            if shape.filled and len(xy) >= 3:
+                draw.polygon(xy, fill=1)
+            if shape.stroke_width > 0 and len(xy) >= 2:
+                draw.line(xy + (xy[:1] if closed else []), fill=1,
+                          width=max(1, round(shape.stroke_width * scale)))
+    return Mask(np.asarray(img, dtype=bool), x0, y0)
+
+
+def overlap(a: Mask, b: Mask) -> int:
+    """Number of pixels two masks share."""
+    x0, y0 = max(a.x0, b.x0), max(a.y0, b.y0)
+    x1 = min(a.x0 + a.pixels.shape[1], b.x0 + b.pixels.shape[1])
+    y1 = min(a.y0 + a.pixels.shape[0], b.y0 + b.pixels.shape[0])
+    if x1 <= x0 or y1 <= y0:
+        return 0
+    pa = a.pixels[y0 - a.y0 : y1 - a.y0, x0 - a.x0 : x1 - a.x0]
+    pb = b.pixels[y0 - b.y0 : y1 - b.y0, x0 - b.x0 : x1 - b.x0]
+    return int((pa & pb).sum())
