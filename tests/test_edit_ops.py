@@ -6,7 +6,12 @@ import torch
 
 from conftest import make_textons
 from neuraltex.edit.animation import animate, shear_flow, vortex_flow
-from neuraltex.edit.interpolate import interpolate, interpolate_frames, interpolate_spatially
+from neuraltex.edit.interpolate import (
+    interpolate,
+    interpolate_frames,
+    interpolate_spatially,
+    match,
+)
 from neuraltex.edit.texton_edits import (
     apply_edit_list,
     move,
@@ -41,6 +46,16 @@ def test_interpolate_endpoints_and_spd():
     assert len(frames) == 5 and torch.allclose(frames[0].mu[:, :6], a.mu)
     spatial = interpolate_spatially(a, b)
     assert spatial.num_textons == 8
+
+
+def test_unmatched_textons_fade_in_place():
+    a = make_textons(B=1, K=3, C=2, seed=1)
+    b = make_textons(B=1, K=5, C=2, seed=2)
+    a.delta[:], b.delta[:] = 1, 1
+    pa, pb = match(a, b)
+    assert torch.equal(pa.mu[:, 3:], pb.mu[:, 3:]) and (pa.delta[:, 3:] == 0).all()
+    for t in (0.3, 0.7):  # the two textons of b without partner never move
+        assert torch.allclose(interpolate(a, b, t).mu[:, 3:], pb.mu[:, 3:])
 
 
 def test_vary_identity_and_collapse():
