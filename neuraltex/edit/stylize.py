@@ -65,8 +65,12 @@ def encode_patches(model, image: Tensor, side: int, size: int, overlap: float = 
 def merge_patches(patches: Textons, boxes: list[Box], short: int, seed: int = 0) -> Textons:
     """One texton set from per-patch sets (B = len(boxes)) laid out in raster order."""
     g = torch.Generator().manual_seed(seed)
-    merged = patches[0]
+    done, merged = [], patches[0]
     for i in range(1, len(boxes)):
+        if boxes[i][0] != boxes[i - 1][0]:  # a new row: textons above it are final
+            final = (merged.mu[0, :, 1] < boxes[i][0] / short)[None]
+            done.append(merged.filter(final))
+            merged = merged.filter(~final)
         new = patches[i]
         weight = _ramp(boxes, i, short)
         w_new = weight(new.mu[0])
@@ -77,6 +81,7 @@ def merge_patches(patches: Textons, boxes: list[Box], short: int, seed: int = 0)
         t = weight(0.5 * (old.mu[0] + fresh.mu[0]))[None]  # (1, K) at the pair's midpoint
         merged = Textons.cat([merged.filter(~seam_old[None]), blend(old, fresh, t, g),
                               new.filter(~seam_new[None])], dim=1)
+    merged = Textons.cat([*done, merged], dim=1)
     merged.canvas = patches.canvas
     return merged.existing() if bool(merged.exists().any()) else merged
 
