@@ -11,7 +11,6 @@ import math
 
 import torch
 import torch.nn.functional as F
-import torchvision
 from torch import nn
 
 
@@ -62,6 +61,8 @@ class ResNet50Backbone(nn.Module):
 
     def __init__(self, in_channels: int = 3, weights_path: str | None = None) -> None:
         super().__init__()
+        import torchvision  # only the paper preset needs it; keeps CLI start-up short
+
         net = torchvision.models.resnet50(weights=None)
         if weights_path is not None:
             state = torch.load(weights_path, map_location="cpu", weights_only=True)

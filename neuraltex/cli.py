@@ -42,14 +42,21 @@ def _size(args: argparse.Namespace, canvas: tuple[float, float], default_short: 
     return max(1, round(h * s)), max(1, round(w * s))
 
 
-def _encode(args: argparse.Namespace, model):
+def _encode(args: argparse.Namespace, model, path: Path | None = None):
+    """(image (3, H, W), model.encode(image)) for ``path`` (default: ``args.image``)."""
     import torch
 
     from neuraltex.imageio import load_image
 
-    image = load_image(args.image, max_side=args.max_side).to(args.device)
+    image = load_image(path or args.image, max_side=args.max_side).to(args.device)
     with torch.no_grad():
         return image, model.encode(image[None])
+
+
+def _check_fits(textons, model, source: Path) -> None:
+    if textons.feature_dim + 2 != model.generator.feature_channels:
+        raise InputError(f"{source}: {textons.feature_dim} feature channels, but the "
+                         f"model expects {model.generator.feature_channels - 2}")
 
 
 def cmd_encode(args: argparse.Namespace) -> int:
@@ -82,9 +89,7 @@ def cmd_decode(args: argparse.Namespace) -> int:
     check_output_path(args.output)
     textons = load_textons(args.textons)
     model = _model(args)
-    if textons.feature_dim + 2 != model.generator.feature_channels:
-        raise InputError(f"{args.textons}: {textons.feature_dim} feature channels, but the "
-                         f"model expects {model.generator.feature_channels - 2}")
+    _check_fits(textons, model, args.textons)
     size = _size(args, textons.canvas, 256)
     with torch.no_grad():
         out = model.decode(textons.to(device=args.device), size)
@@ -239,6 +244,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--json", action="store_true", help="also print the full header as JSON")
     p.set_defaults(func=cmd_model_info, seed=None)
     p.add_argument("--scale", type=int, default=2, help="picture magnification (default 2)")
+
+    from neuraltex.cli_edit import add_edit_commands
+
+    add_edit_commands(sub)
     return parser
 
 

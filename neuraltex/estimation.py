@@ -69,6 +69,10 @@ def estimate_textons(
     mean = pooled[..., :2]                          # eq. 4.3 (still centred)
     cov = _covariance(pooled[..., 2:5], mean, eps)  # eq. 4.4
     v = F.normalize(pooled[..., 5:], dim=-1, eps=1e-12)  # eq. 4.7
+    # A mask without a direction (empty, or cancelling directions) gets an arbitrary unit one,
+    # so every texton set the encoder writes is valid (texton files require unit v).
+    directed = pooled[..., 5:].norm(dim=-1, keepdim=True) > 1e-6
+    v = torch.where(directed, v, v.new_tensor([1.0, 0.0]))
     f = _MaskPool.apply(appearance.reshape(B, C, -1), S).transpose(1, 2) / mass.unsqueeze(-1)
     f = F.normalize(f, dim=-1, eps=1e-12)           # eq. 4.6
 

@@ -1,4 +1,6 @@
 """Reading and writing pictures for the CLIs: any common mode in, RGB float out; atomic writes.
+Frame sequences go to an animated GIF, an MP4 (when imageio has a video writer) or numbered
+pictures (``out_{i}.png``).
 
 Grayscale, palette, RGBA/LA (composited on white), CMYK and 16-bit images are converted, not
 rejected. Corrupt or unreadable files raise :class:`InputError`. Images larger than
@@ -76,8 +78,7 @@ def check_output_path(path: str | os.PathLike) -> Path:
 def save_image(image: torch.Tensor, path: str | os.PathLike) -> None:
     """Write (3, H, W) in [0, 1] atomically; the format follows the extension."""
     path = check_output_path(path)
-    arr = (image.detach().float().clamp(0, 1).permute(1, 2, 0).cpu().numpy() * 255).round()
-    pic = Image.fromarray(arr.astype(np.uint8))
+    pic = _to_pil(image)
     with atomic_path(path) as tmp:
         pic.save(tmp, format=WRITE_FORMATS[path.suffix.lower()])
 
@@ -86,3 +87,69 @@ def save_pil(pic: Image.Image, path: str | os.PathLike) -> None:
     path = check_output_path(path)
     with atomic_path(path) as tmp:
         pic.convert("RGB").save(tmp, format=WRITE_FORMATS[path.suffix.lower()])
+
+
+def _to_pil(image: torch.Tensor) -> Image.Image:
+    arr = (image.detach().float().clamp(0, 1).permute(1, 2, 0).cpu().numpy() * 255).round()
+    return Image.fromarray(arr.astype(np.uint8))
+
+
+def numbered(path: str | os.PathLike, count: int) -> list[Path]:
+    """``count`` output paths from a pattern with ``{i}`` (``out_{i}.png``, ``f{i:03d}.jpg``);
+    without ``{i}``, one output keeps its name and several get ``_{i}`` before the suffix."""
+    path = Path(path)
+    pattern = str(path)
+    if "{i" not in pattern:
+        if count == 1:
+            return [check_output_path(path)]
+        pattern = str(path.with_name(f"{path.stem}_{{i}}{path.suffix}"))
+    try:
+        paths = [Path(pattern.format(i=i)) for i in range(count)]
+    except (KeyError, IndexError, ValueError) as exc:
+        raise InputError(f"{path}: bad output pattern ({exc}); use {{i}} for the number") from None
+    for q in paths:
+        check_output_path(q)
+    return paths
+
+
+def _mp4_writer_available() -> bool:
+    import importlib.util
+
+    if importlib.util.find_spec("imageio") is None:
+        return False
+    return any(importlib.util.find_spec(m) is not None for m in ("imageio_ffmpeg", "av"))
+
+
+def check_sequence_output(path: str | os.PathLike) -> Path:
+    """Validate where a frame sequence goes (.gif, .mp4, or a picture pattern) before work."""
+    path = Path(path)
+    suffix = path.suffix.lower()
+    if suffix == ".mp4" and not _mp4_writer_available():
+        raise InputError(f"{path}: no MP4 writer installed (pip install imageio[ffmpeg]); "
+                         "write a .gif or numbered pictures (out_{i}.png) instead")
+    if suffix not in (".gif", ".mp4"):
+        numbered(path, 2)
+    return path
+
+
+def save_frames(frames: list[torch.Tensor], path: str | os.PathLike, fps: float = 12) -> list[Path]:
+    """Write (3, H, W) frames as an animated GIF, an MP4 or numbered pictures (by the name)."""
+    path = check_sequence_output(path)
+    suffix = path.suffix.lower()
+    if suffix == ".gif":
+        pics = [_to_pil(f) for f in frames]
+        with atomic_path(path) as tmp:
+            pics[0].save(tmp, format="GIF", save_all=True, append_images=pics[1:], loop=0,
+                         duration=round(1000 / fps))
+        return [path]
+    if suffix == ".mp4":
+        import imageio.v3 as iio
+
+        arr = np.stack([np.asarray(_to_pil(f)) for f in frames])
+        with atomic_path(path) as tmp:
+            iio.imwrite(tmp, arr, fps=fps)
+        return [path]
+    paths = numbered(path, len(frames))
+    for frame, q in zip(frames, paths, strict=True):
+        save_image(frame, q)
+    return paths

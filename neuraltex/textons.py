@@ -131,6 +131,8 @@ class Textons:
         keep = keep.to(self.device, torch.bool)
         if keep.shape != self.p.shape:
             raise ValueError(f"keep mask must have shape {tuple(self.p.shape)}")
+        if self.batch_size == 1:  # one set: no padding needed, plain boolean indexing
+            return self._map(lambda t: t[:, keep[0]])
         counts = keep.sum(dim=1)
         k_new = int(counts.max()) if counts.numel() else 0
         padded = self.pad_to(self.num_textons + k_new)

@@ -6,7 +6,12 @@ import torch
 
 from conftest import make_textons
 from neuraltex.edit.animation import animate, shear_flow, vortex_flow
-from neuraltex.edit.interpolate import interpolate, interpolate_frames, interpolate_spatially
+from neuraltex.edit.interpolate import (
+    interpolate,
+    interpolate_frames,
+    interpolate_spatially,
+    match,
+)
 from neuraltex.edit.texton_edits import (
     apply_edit_list,
     move,
@@ -43,6 +48,16 @@ def test_interpolate_endpoints_and_spd():
     assert spatial.num_textons == 8
 
 
+def test_unmatched_textons_fade_in_place():
+    a = make_textons(B=1, K=3, C=2, seed=1)
+    b = make_textons(B=1, K=5, C=2, seed=2)
+    a.delta[:], b.delta[:] = 1, 1
+    pa, pb = match(a, b)
+    assert torch.equal(pa.mu[:, 3:], pb.mu[:, 3:]) and (pa.delta[:, 3:] == 0).all()
+    for t in (0.3, 0.7):  # the two textons of b without partner never move
+        assert torch.allclose(interpolate(a, b, t).mu[:, 3:], pb.mu[:, 3:])
+
+
 def test_vary_identity_and_collapse():
     t = _binary(make_textons(B=2, K=7, C=4, seed=3))
     same = vary(t, 1.0, 1.0)
@@ -54,6 +69,8 @@ def test_vary_identity_and_collapse():
     spread = lambda c: torch.linalg.eigvalsh(c).log().std()  # noqa: E731
     assert spread(more.cov) > spread(t.cov)
     assert (torch.linalg.eigvalsh(more.cov) > 0).all()
+    t.delta[0] = 0  # a set without effective textons must not break the Cholesky factors
+    assert torch.isfinite(vary(t, 0.5, 0.5).cov).all()
 
 
 def test_lower_triangular_power_matches_matrix_power():

@@ -117,3 +117,11 @@ def test_bad_shapes_are_rejected():
         estimate_textons(masks, torch.rand(1, 4, 8, 9), torch.rand(1, 2, 8, 8))
     with pytest.raises(ValueError, match="direction"):
         estimate_textons(masks, torch.rand(1, 4, 8, 8), torch.rand(1, 3, 8, 8))
+
+
+def test_empty_masks_still_get_unit_directions():
+    masks = torch.zeros(1, 3, 8, 8)
+    masks[:, 0] = 1.0  # textons 1 and 2 have no pixels at all
+    direction = torch.nn.functional.normalize(torch.randn(1, 2, 8, 8), dim=1)
+    t = estimate_textons(masks, torch.randn(1, 4, 8, 8), direction)
+    assert torch.allclose(t.v.norm(dim=-1), torch.ones(1, 3))

@@ -33,6 +33,14 @@ def test_filter_compacts_and_pads(textons):
     assert out.order[1, 1] < out.order[1, 0]          # and drawn behind
 
 
+def test_filter_of_one_set_matches_the_batched_path(textons):
+    keep = torch.tensor([[True, False, True, False, True], [False, True, False, True, True]])
+    batched = textons.filter(keep)  # B = 2: the general path
+    for b in range(2):
+        _same(textons[b].filter(keep[b:b + 1]), batched[b])
+    assert textons[0].filter(torch.zeros(1, 5, dtype=torch.bool)).num_textons == 0
+
+
 def test_existing_keeps_effective_only(textons):
     out = textons.existing()
     assert torch.equal(out.num_effective(), textons.num_effective())

@@ -8,6 +8,8 @@ t = 1 give back the endpoints exactly.
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import torch
 import torch.nn.functional as F
 from scipy.optimize import linear_sum_assignment
@@ -16,16 +18,45 @@ from torch import Tensor
 from neuraltex.textons import Textons
 
 
-def correspond(a: Textons, b: Textons) -> Textons:
-    """Reorder (and pad) ``b`` so texton i of the result matches texton i of ``a``."""
-    k = max(a.num_textons, b.num_textons)
+def match(a: Textons, b: Textons) -> tuple[Textons, Textons]:
+    """Pad both sets to K = max(K_a, K_b) and reorder ``b`` so texton i matches texton i of
+    ``a`` (Hungarian algorithm on centre distance + existence difference, per set).
+
+    A padding slot (a texton without partner) takes its partner's geometry and appearance,
+    existence 0, so along a blend an unmatched texton fades in or out in place instead of
+    sliding towards the origin. Pairing with padding costs only the existence term, so which
+    textons stay unmatched depends on the others' best matching, not on where they sit.
+    Shapes: (B, K_a) and (B, K_b) sets -> two (B, K) sets.
+    """
+    n_a, n_b = a.num_textons, b.num_textons
+    k = max(n_a, n_b)
     a, b = a.pad_to(k), b.pad_to(k)
-    cost = torch.cdist(a.mu, b.mu) + (a.delta.unsqueeze(2) - b.delta.unsqueeze(1)).abs()
+    real_a = torch.arange(k, device=a.device) < n_a
+    real_b = torch.arange(k, device=b.device) < n_b
+    dist = torch.cdist(a.mu, b.mu) * (real_a[:, None] & real_b[None, :])        # (B, K, K)
+    cost = dist + (a.delta.unsqueeze(2) - b.delta.unsqueeze(1)).abs()
     idx = []
     for c in cost.detach().cpu().numpy():
         rows, cols = linear_sum_assignment(c)
         idx.append(torch.as_tensor(cols[rows.argsort()]))
-    return b.index(torch.stack(idx).to(a.device))
+    idx = torch.stack(idx).to(a.device)                                         # (B, K)
+    b = b.index(idx)
+    pad_b = idx >= n_b
+    pad_a = (~real_a).expand_as(pad_b)
+    return _adopt(a, b, pad_a), _adopt(b, a, pad_b)
+
+
+def correspond(a: Textons, b: Textons) -> Textons:
+    """Reorder (and pad) ``b`` so texton i of the result matches texton i of ``a``."""
+    return match(a, b)[1]
+
+
+def _adopt(t: Textons, partner: Textons, where: Tensor) -> Textons:
+    """Where ``where`` (B, K): copy mu, cov, v, f of ``partner`` (existence stays)."""
+    def pick(x: Tensor, y: Tensor) -> Tensor:
+        return torch.where(where.reshape(where.shape + (1,) * (x.dim() - 2)), y, x)
+    return replace(t, mu=pick(t.mu, partner.mu), cov=pick(t.cov, partner.cov),
+                   v=pick(t.v, partner.v), f=pick(t.f, partner.f))
 
 
 def blend(a: Textons, b: Textons, t: float | Tensor,
@@ -57,7 +88,7 @@ def interpolate(a: Textons, b: Textons, t: float, seed: int = 0) -> Textons:
     if not 0.0 <= t <= 1.0:
         raise ValueError(f"t must lie in [0, 1], got {t}")
     g = torch.Generator().manual_seed(seed)
-    return blend(a.pad_to(max(a.num_textons, b.num_textons)), correspond(a, b), t, g)
+    return blend(*match(a, b), t, g)
 
 
 def interpolate_frames(a: Textons, b: Textons, frames: int, seed: int = 0) -> list[Textons]:
@@ -65,16 +96,14 @@ def interpolate_frames(a: Textons, b: Textons, frames: int, seed: int = 0) -> li
     a texton switches on or off only once along the sequence."""
     if frames < 2:
         raise ValueError("need at least 2 frames")
-    matched = correspond(a, b)
-    a = a.pad_to(matched.num_textons)
+    a, matched = match(a, b)
     return [blend(a, matched, i / (frames - 1), torch.Generator().manual_seed(seed))
             for i in range(frames)]
 
 
 def interpolate_spatially(a: Textons, b: Textons, seed: int = 0) -> Textons:
     """t grows linearly from 0 at the left edge to 1 at the right edge (by texton centre)."""
-    matched = correspond(a, b)
-    a = a.pad_to(matched.num_textons)
+    a, matched = match(a, b)
     x = 0.5 * (a.mu[..., 0] + matched.mu[..., 0])
     t = (x / a.canvas[0]).clamp(0, 1)
     return blend(a, matched, t, torch.Generator().manual_seed(seed))

@@ -44,6 +44,9 @@ def vary(textons: Textons, appearance: float = 1.0, shape: float = 1.0) -> Texto
     cov = t.cov
     if shape != 1.0:
         U_bar = effective_mean(t.cov, t.delta)  # (B, 1, 2, 2)
+        # A set without effective textons has no mean shape (and draws nothing): use them all.
+        empty = ~t.exists().any(1).reshape(-1, 1, 1, 1)
+        U_bar = torch.where(empty, t.cov.mean(1, keepdim=True), U_bar)
         L = torch.linalg.cholesky(t.cov)        # eq. 4.28
         L_bar = torch.linalg.cholesky(U_bar)
         W = L @ torch.linalg.inv(L_bar)         # eq. 4.29

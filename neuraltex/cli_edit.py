@@ -1,0 +1,309 @@
+"""The editing subcommands of ``neuraltex`` (seed 003, 4.4): transfer, reshuffle, interpolate,
+vary, edit, propagate, animate, stylize.
+
+Each reads images (or texton files, .json/.pt, wherever a texture is expected), edits textons
+with :mod:`neuraltex.edit` and decodes them with the model. Outputs are checked before any work,
+so bad input never leaves a partial file. Heavy imports happen inside the commands.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+from pathlib import Path
+
+from neuraltex import cli as base
+from neuraltex.errors import InputError
+
+TEXTON_FILES = (".json", ".pt")
+FRAMES_OUT = ".gif, .mp4 or a picture pattern such as out_{i}.png"
+
+
+def _textons(args: argparse.Namespace, model, path: Path):
+    """(textons of one set, default output short side) for an image or a texton file."""
+    if path.suffix.lower() in TEXTON_FILES:
+        from neuraltex.textons_file import load_textons
+
+        t = load_textons(path)
+        base._check_fits(t, model, path)
+        if t.batch_size != 1:
+            raise InputError(f"{path}: holds {t.batch_size} texton sets; editing takes one")
+        return t.to(device=args.device), 256
+    image, enc = base._encode(args, model, path)
+    return enc.textons, min(image.shape[-2:])
+
+
+def _decode(args: argparse.Namespace, model, textons, default_short: int):
+    """One texton set -> image (3, H, W) at --size (default: the source's short side)."""
+    import torch
+
+    size = base._size(args, textons.canvas, default_short)
+    with torch.no_grad():
+        return model.decode(textons.to(device=args.device), size)[0]
+
+
+def _decode_frames(args: argparse.Namespace, model, frames: list, default_short: int) -> list:
+    return [_decode(args, model, t, default_short) for t in _progress("frames")(frames)]
+
+
+def _progress(desc: str):
+    from tqdm import tqdm
+
+    return lambda it: tqdm(it, desc=desc, leave=False, disable=None)  # no bar unless a tty
+
+
+def _save(image, path: Path) -> None:
+    from neuraltex.imageio import save_image
+
+    save_image(image, path)
+    print(f"wrote {path} ({image.shape[-1]}x{image.shape[-2]})")
+
+
+def _save_frames(frames: list, path: Path, fps: float) -> None:
+    from neuraltex.imageio import save_frames
+
+    written = save_frames(frames, path, fps)
+    where = written[0] if len(written) == 1 else f"{written[0]} .. {written[-1]}"
+    print(f"wrote {where} ({len(frames)} frames)")
+
+
+def _regions(path: Path | None, count: int, max_side: int):
+    """(H, W) int64 region labels from a colour-coded mask: colours sorted by RGB (black first)
+    number the regions; there must be one colour per appearance texture."""
+    import numpy as np
+    import torch
+
+    from neuraltex.imageio import load_image
+
+    if path is None:
+        if count > 1:
+            raise InputError("several appearance textures need --regions MASK")
+        return None
+    rgb = (load_image(path, max_side=max_side) * 255).round().to(torch.int64)  # (3, H, W)
+    flat = rgb.flatten(1).T.numpy()
+    colours, labels = np.unique(flat, axis=0, return_inverse=True)
+    if len(colours) != count:
+        raise InputError(f"{path}: {len(colours)} region colours for {count} appearance "
+                         "texture(s); use one colour per texture")
+    return torch.from_numpy(labels.reshape(rgb.shape[1:]))
+
+
+def _with_appearance(structure, apps: list, regions, mode: str, seed: int):
+    from neuraltex.edit.transfer import transfer, transfer_regions
+
+    if regions is None:
+        return transfer(structure, apps[0], mode, seed)
+    return transfer_regions(structure, apps, regions.to(structure.device), mode, seed)
+
+
+def cmd_transfer(args: argparse.Namespace) -> int:
+    """Texture transfer (4.4.2): the structure (textons) of the first texture with the
+    appearance of the others; several appearances go to the regions of --regions."""
+    from neuraltex.imageio import check_output_path
+
+    check_output_path(args.output)
+    regions = _regions(args.regions, len(args.appearance), args.max_side)
+    model = base._model(args)
+    structure, short = _textons(args, model, args.structure)
+    apps = [_textons(args, model, p)[0] for p in args.appearance]
+    out = _with_appearance(structure, apps, regions, args.mode, args.seed or 0)
+    _save(_decode(args, model, out, short), args.output)
+    return 0
+
+
+def cmd_reshuffle(args: argparse.Namespace) -> int:
+    """Texture diversification (4.4.1): appearance features permuted among effective textons."""
+    from neuraltex.imageio import numbered
+    from neuraltex.reshuffle import reshuffle
+
+    if args.count < 1:
+        raise InputError("--count must be at least 1")
+    paths = numbered(args.output, args.count)
+    model = base._model(args)
+    textons, short = _textons(args, model, args.image)
+    for i, path in enumerate(paths):
+        seed = None if args.seed is None else args.seed + i
+        _save(_decode(args, model, reshuffle(textons, seed=seed), short), path)
+    return 0
+
+
+def cmd_interpolate(args: argparse.Namespace) -> int:
+    """Texture interpolation (4.4.4): at --t, as --frames from A to B, or --spatial (t grows
+    from 0 on the left to 1 on the right)."""
+    from neuraltex.edit.interpolate import interpolate, interpolate_frames, interpolate_spatially
+    from neuraltex.imageio import check_output_path, check_sequence_output
+
+    if args.frames is not None and args.frames < 2:
+        raise InputError("--frames must be at least 2")
+    if not 0 <= args.t <= 1:
+        raise InputError(f"--t must lie in [0, 1], got {args.t}")
+    (check_sequence_output if args.frames else check_output_path)(args.output)
+    model = base._model(args)
+    a, short = _textons(args, model, args.image)
+    b, _ = _textons(args, model, args.other)
+    seed = args.seed or 0
+    if args.frames:
+        frames = interpolate_frames(a, b, args.frames, seed)
+        _save_frames(_decode_frames(args, model, frames, short), args.output, args.fps)
+        return 0
+    out = interpolate_spatially(a, b, seed) if args.spatial else interpolate(a, b, args.t, seed)
+    _save(_decode(args, model, out, short), args.output)
+    return 0
+
+
+def cmd_vary(args: argparse.Namespace) -> int:
+    """Modify texture variations (4.4.3): scale the appearance (lambda_f) and shape (lambda_U)
+    variation around the mean; 1 keeps the texture, 0 makes every texton the mean one."""
+    from neuraltex.edit.vary import vary
+    from neuraltex.imageio import check_output_path
+
+    if args.appearance < 0 or args.shape < 0:
+        raise InputError("--appearance and --shape must be >= 0")
+    check_output_path(args.output)
+    model = base._model(args)
+    textons, short = _textons(args, model, args.image)
+    _save(_decode(args, model, vary(textons, args.appearance, args.shape), short), args.output)
+    return 0
+
+
+def cmd_edit(args: argparse.Namespace) -> int:
+    """Texton edits (4.4.5.1) from a JSON edit list: select by point, index, region or
+    similarity, then move, scale, rotate, delete or duplicate (see neuraltex.edit.texton_edits)."""
+    from neuraltex.edit.texton_edits import apply_edit_list
+    from neuraltex.imageio import check_output_path
+    from neuraltex.textons_file import save_textons
+
+    check_output_path(args.output)
+    if args.textons_out and args.textons_out.suffix not in TEXTON_FILES:
+        raise InputError(f"{args.textons_out}: textons are written as .json or .pt")
+    model = base._model(args)
+    textons, short = _textons(args, model, args.image)
+    edited = apply_edit_list(textons, args.edits)
+    image = _decode(args, model, edited, short)
+    if args.textons_out:
+        save_textons(edited, args.textons_out)
+        print(f"wrote {args.textons_out}")
+    _save(image, args.output)
+    return 0
+
+
+def cmd_propagate(args: argparse.Namespace) -> int:
+    """Edit propagation (4.4.5.2): the change between ORIGINAL and EDITED, made on one texton,
+    is repeated on every similar texton (pixel space, aligned by their Gaussians)."""
+    from neuraltex.edit.propagate import propagate_edit
+    from neuraltex.imageio import check_output_path, load_image
+
+    check_output_path(args.output)
+    edited = load_image(args.edited, max_side=args.max_side).to(args.device)
+    model = base._model(args)
+    original, enc = base._encode(args, model)
+    if edited.shape != original.shape:
+        raise InputError(f"{args.edited}: {edited.shape[2]}x{edited.shape[1]}, but the original "
+                         f"is {original.shape[2]}x{original.shape[1]}")
+    out = propagate_edit(original, edited, enc.textons, args.threshold, args.radius)
+    print(f"edited texton {out.source}; propagated to {int(out.targets.sum())} similar textons")
+    _save(out.image, args.output)
+    return 0
+
+
+def cmd_animate(args: argparse.Namespace) -> int:
+    """Texture animation (4.4.6, appendix 7.7.3): textons carried by a perturbed shear flow or a
+    vortex flow; frame 0 is the reconstruction."""
+    from neuraltex.edit.animation import animate
+    from neuraltex.imageio import check_sequence_output
+
+    if args.frames < 1 or args.fps <= 0 or args.duration <= 0:
+        raise InputError("--frames, --fps and --duration must be positive")
+    check_sequence_output(args.output)
+    model = base._model(args)
+    textons, short = _textons(args, model, args.image)
+    frames = animate(textons, args.flow, args.frames, args.duration, args.seed or 0,
+                     args.velocity, args.omega)
+    _save_frames(_decode_frames(args, model, frames, short), args.output, args.fps)
+    return 0
+
+
+def cmd_stylize(args: argparse.Namespace) -> int:
+    """Image stylization (4.4.2): a content image of any size encoded by overlapping patches,
+    given the appearance of a texture (several: one per --regions colour); --scale < 1 makes
+    smaller textons, > 1 larger ones."""
+    from neuraltex.edit.stylize import content_textons
+    from neuraltex.imageio import check_output_path, load_image
+
+    check_output_path(args.output)
+    if args.scale <= 0 or not 0 <= args.overlap < 1:
+        raise InputError("need --scale > 0 and 0 <= --overlap < 1")
+    regions = _regions(args.regions, len(args.texture), args.max_side)
+    content = load_image(args.image, max_side=args.max_side).to(args.device)
+    model = base._model(args)
+    apps = [_textons(args, model, p)[0] for p in args.texture]
+    patch = args.patch or int(getattr(model, "config", {}).get("image_size") or 128)
+    textons = content_textons(model, content, patch, args.scale, args.overlap, args.seed or 0,
+                              progress=_progress("patches"))
+    out = _with_appearance(textons, apps, regions, args.mode, args.seed or 0)
+    _save(_decode(args, model, out, min(content.shape[-2:])), args.output)
+    return 0
+
+
+def add_edit_commands(sub) -> None:
+    """Register the editing subcommands on the ``neuraltex`` subparsers."""
+    cmd = base._model_command
+    img = base.IMAGE_OUT
+    p = cmd(sub, "transfer", cmd_transfer, "structure of one texture, appearance of another",
+            "structure", img)
+    p.add_argument("appearance", type=Path, nargs="+", help="appearance texture(s)")
+    _mode_and_regions(p)
+
+    p = cmd(sub, "reshuffle", cmd_reshuffle, "diversify: permute texton appearances", "image",
+            f"{img}; with --count > 1 a pattern such as out_{{i}}.png")
+    p.add_argument("--count", type=int, default=1, help="number of variations (default 1)")
+
+    p = cmd(sub, "interpolate", cmd_interpolate, "blend two textures", "image",
+            f"{img}; with --frames {FRAMES_OUT}")
+    p.add_argument("other", type=Path, help="the texture at t = 1")
+    g = p.add_mutually_exclusive_group()
+    g.add_argument("--t", type=float, default=0.5, help="blend weight in [0, 1] (default 0.5)")
+    g.add_argument("--frames", type=int, help="a sequence of N frames from t = 0 to 1")
+    g.add_argument("--spatial", action="store_true", help="t from 0 (left) to 1 (right)")
+    p.add_argument("--fps", type=float, default=8, help="frames per second (default 8)")
+
+    p = cmd(sub, "vary", cmd_vary, "scale appearance / shape variations", "image", img)
+    p.add_argument("--appearance", type=float, default=1.0, help="lambda_f (default 1)")
+    p.add_argument("--shape", type=float, default=1.0, help="lambda_U (default 1)")
+
+    p = cmd(sub, "edit", cmd_edit, "move, scale, rotate, delete, duplicate textons", "image",
+            img)
+    p.add_argument("edits", type=Path, help="JSON edit list")
+    p.add_argument("--textons-out", type=Path, help="also write the edited textons")
+
+    p = cmd(sub, "propagate", cmd_propagate, "repeat an edit on similar textons", "image", img)
+    p.add_argument("edited", type=Path, help="the image after the user's edit")
+    p.add_argument("--threshold", type=float, default=0.9,
+                   help="feature cosine similarity of targets (default 0.9)")
+    p.add_argument("--radius", type=float, default=3.0,
+                   help="edit kept within this Mahalanobis distance of the texton (default 3)")
+
+    p = cmd(sub, "animate", cmd_animate, "animate a texture with a flow field", "image",
+            FRAMES_OUT)
+    p.add_argument("--flow", choices=("shear", "vortex"), default="vortex")
+    p.add_argument("--frames", type=int, default=24, help="number of frames (default 24)")
+    p.add_argument("--fps", type=float, default=12, help="frames per second (default 12)")
+    p.add_argument("--duration", type=float, default=4.0, help="flow time covered (default 4)")
+    p.add_argument("--velocity", type=float, default=0.5, help="shear speed (default 0.5)")
+    p.add_argument("--omega", type=float, default=2 * math.pi / 4,
+                   help="vortex angular speed (default 2 pi / 4: one turn in 4)")
+
+    p = cmd(sub, "stylize", cmd_stylize, "a large image in the style of a texture", "image",
+            img)
+    p.add_argument("texture", type=Path, nargs="+", help="texture(s) giving the appearance")
+    p.add_argument("--scale", type=float, default=1.0, help="texton scale (default 1)")
+    p.add_argument("--patch", type=int, help="model input size (default: its training size)")
+    p.add_argument("--overlap", type=float, default=0.25, help="patch overlap (default 0.25)")
+    _mode_and_regions(p)
+
+
+def _mode_and_regions(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--mode", choices=("mean", "replace"), default="mean",
+                   help="mean: shift feature means (default); replace: draw features")
+    p.add_argument("--regions", type=Path,
+                   help="colour-coded mask, one colour per appearance (sorted by RGB)")
