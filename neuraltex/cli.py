@@ -236,6 +236,7 @@ def build_parser() -> argparse.ArgumentParser:
     p = _model_command(sub, "overlay", cmd_overlay, "picture of an image's textons", "image",
                        IMAGE_OUT, size=False)
     p.add_argument("--svg", type=Path, help="also write the Gaussians as SVG ellipses")
+    p.add_argument("--scale", type=int, default=2, help="picture magnification (default 2)")
 
     p = sub.add_parser("model-info", help="which model is used and how it was trained",
                        description=cmd_model_info.__doc__)
@@ -243,7 +244,6 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--device", default="cpu", help="torch device (default: cpu)")
     p.add_argument("--json", action="store_true", help="also print the full header as JSON")
     p.set_defaults(func=cmd_model_info, seed=None)
-    p.add_argument("--scale", type=int, default=2, help="picture magnification (default 2)")
 
     from neuraltex.cli_edit import add_edit_commands
 

@@ -14,7 +14,9 @@ def run(*args: str, module: str = "neuraltex.cli") -> subprocess.CompletedProces
 @pytest.mark.parametrize("module, prog", [("neuraltex.cli", "neuraltex"), ("cvt.cli", "cvt")])
 def test_version_and_help(module, prog):
     out = run("--version", module=module)
-    assert out.returncode == 0 and out.stdout.strip() == f"{prog} {__version__}"
+    assert out.returncode == 0 and out.stdout.splitlines()[0] == f"{prog} {__version__}"
+    if prog == "neuraltex":  # also names the default model (or says none is shipped)
+        assert out.stdout.splitlines()[1].startswith("default model: ")
     out = run("--help", module=module)
     assert out.returncode == 0 and f"usage: {prog}" in out.stdout
 
