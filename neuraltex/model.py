@@ -16,6 +16,7 @@ import torch
 import torch.nn.functional as F
 from torch import Tensor, nn
 
+from neuraltex.coords import default_window
 from neuraltex.estimation import Existence, estimate_textons
 from neuraltex.splatting import Splat, splat
 from neuraltex.textons import Textons
@@ -34,20 +35,35 @@ class TextonAutoencoder(nn.Module):
     ``encoder(image) -> (appearance, direction)``, ``segmenter(image) -> mask logits``
     (B, n, h', w'), ``generator(features, max_opacity) -> image``.
     ``estimation_size``: resolution at which masks and feature maps meet in E_g (None: the
-    input size); ``cutoff``: Mahalanobis cut-off of the splatting.
+    input size); ``cutoff``: Mahalanobis cut-off of the splatting; ``native_size``: the
+    training resolution (short side) that :meth:`encode` downscales larger inputs to.
     """
 
     def __init__(self, encoder: nn.Module, segmenter: nn.Module, generator: nn.Module, *,
                  estimation_size: int | None = None, eps: float = 1e-5,
-                 temperature: float = 1.0, cutoff: float | None = None) -> None:
+                 temperature: float = 1.0, cutoff: float | None = None,
+                 native_size: int | None = None) -> None:
         super().__init__()
         self.encoder, self.segmenter, self.generator = encoder, segmenter, generator
         self.estimation_size = estimation_size
         self.eps, self.temperature, self.cutoff = eps, temperature, cutoff
+        self.native_size = native_size
 
     def encode(self, image: Tensor, existence: Existence = "round",
-               generator: torch.Generator | None = None) -> Encoded:
-        """Image (B, 3, H, W) in [0, 1] -> textons (+ the maps they came from)."""
+               generator: torch.Generator | None = None, native: bool = True) -> Encoded:
+        """Image (B, 3, H, W) in [0, 1] -> textons (+ the maps they came from).
+
+        With ``native`` (inference), an image whose short side exceeds the model's training
+        resolution ``native_size`` is first downscaled to it, so the networks see textons at
+        the scale they were trained on; textons are resolution independent, so nothing else
+        changes. The trainer passes ``native=False`` (its crops are already at that scale).
+        """
+        window = default_window(*image.shape[-2:])  # the input's canvas, kept when resized
+        if native and self.native_size and min(image.shape[-2:]) > self.native_size:
+            s = self.native_size / min(image.shape[-2:])
+            hw = tuple(max(1, round(d * s)) for d in image.shape[-2:])
+            image = F.interpolate(image, size=hw, mode="bilinear", align_corners=False,
+                                  antialias=True)
         appearance, direction = self.encoder(image * 2 - 1)
         masks = self.segment(image)
         size = tuple(masks.shape[-2:])
@@ -55,7 +71,7 @@ class TextonAutoencoder(nn.Module):
         direction = _resize(direction, size)
         textons = estimate_textons(masks, appearance, direction, existence=existence,
                                    temperature=self.temperature, eps=self.eps,
-                                   generator=generator)
+                                   window=window, generator=generator)
         return Encoded(textons, masks, appearance, direction)
 
     def segment(self, image: Tensor) -> Tensor:
@@ -108,7 +124,8 @@ def build_model(config: dict, with_critics: bool = False):
                               estimation_size=config.get("estimation_size"),
                               eps=config.get("eps", 1e-5),
                               temperature=config.get("temperature", 1.0),
-                              cutoff=config.get("cutoff"))
+                              cutoff=config.get("cutoff"),
+                              native_size=config.get("image_size"))
     if not with_critics:
         return model
     pcfg = nets_cfg.patch_discriminator
@@ -133,25 +150,38 @@ def load_model(path, device: str | torch.device = "cpu") -> TextonAutoencoder:
     return model.to(device).eval()
 
 
-def load_segmenter(checkpoint, device: str | torch.device = "cpu"):
+def load_segmenter(checkpoint, device: str | torch.device = "cpu", labels: str = "masks"):
     """The model as a texton segmenter for the benchmark (``scripts/eval_textons.py --method
-    model``): image (H, W, 3) float in [0, 1] -> (H, W) int labels, one per texton. Pixels are
-    labelled by the texton with the largest composited splat weight (eq. 4.13), so the label
-    map is what the decoder sees; pixels no texton reaches are 0 (background)."""
+    model``): image (H, W, 3) float in [0, 1] -> (H, W) int labels, one per texton.
+
+    ``labels="masks"``: each pixel goes to the query whose mask S (E_s) is largest there, i.e.
+    the segment its texton was estimated from (eqs. 4.3-4.7); pixels of queries that are not
+    effective (p <= 0.5) are 0 (background). ``labels="splats"``: the texton with the largest
+    composited splat weight (eq. 4.13), i.e. what the decoder sees; pixels no texton reaches
+    are 0.
+    """
     import numpy as np
 
     from neuraltex.splatting import opacity_maps
 
+    if labels not in ("masks", "splats"):
+        raise ValueError(f"labels must be 'masks' or 'splats', got {labels!r}")
     model = load_model(checkpoint, device)
 
     @torch.no_grad()
     def segment(image: np.ndarray) -> np.ndarray:
         x = torch.from_numpy(np.ascontiguousarray(image, dtype=np.float32)).permute(2, 0, 1)
         H, W = x.shape[-2:]
-        textons = model.encode(x[None].to(device)).textons
-        weights = opacity_maps(textons, (H, W), cutoff=model.cutoff)[0]  # (K, H, W)
-        label = weights.argmax(0) + 1
-        label[weights.amax(0) < 0.05] = 0
+        enc = model.encode(x[None].to(device))
+        if labels == "masks":
+            masks = F.interpolate(enc.masks, size=(H, W), mode="bilinear", align_corners=False)
+            best = masks[0].argmax(0)  # (H, W)
+            effective = enc.textons.p[0] > 0.5  # (n,)
+            label = torch.where(effective[best], best + 1, torch.zeros_like(best))
+        else:
+            weights = opacity_maps(enc.textons, (H, W), cutoff=model.cutoff)[0]  # (K, H, W)
+            label = weights.argmax(0) + 1
+            label[weights.amax(0) < 0.05] = 0
         return label.cpu().numpy().astype(np.int64)
 
     return segment

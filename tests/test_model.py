@@ -22,7 +22,9 @@ def test_encode_decode_shapes_at_any_size(model, size, batch):
         out = model.decode(enc.textons, size)
         big = model.decode(enc.textons, (size[0] * 2, size[1] * 2))
     assert enc.masks.shape[:2] == (batch, enc.textons.num_textons)
-    assert torch.allclose(enc.masks.sum(1), torch.ones(batch, *size), atol=1e-5)
+    s = min(1.0, 32 / min(size))  # inputs above the training size are encoded at it
+    hw = tuple(round(d * s) for d in size)
+    assert torch.allclose(enc.masks.sum(1), torch.ones(batch, *hw), atol=1e-5)
     assert enc.textons.canvas == pytest.approx((size[1] / min(size), size[0] / min(size)))
     assert out.shape == (batch, 3, *size) and big.shape[-2:] == (size[0] * 2, size[1] * 2)
     assert 0 <= out.min() and out.max() <= 1
@@ -58,3 +60,17 @@ def test_export_load_round_trip_and_tamper(tmp_path, model):
     export_model(path, state, CONFIG, {})  # self-consistent file, but weights missing
     with pytest.raises(CheckpointError, match="do not fit"):
         load_model(path)
+
+
+def test_encode_runs_at_the_native_resolution(model):
+    import torch.nn.functional as F
+
+    image = torch.rand(1, 3, 64, 96)
+    small = F.interpolate(image, size=(32, 48), mode="bilinear", align_corners=False,
+                          antialias=True)
+    with torch.no_grad():
+        big, ref = model.encode(image).textons, model.encode(small).textons
+        full = model.encode(image, native=False)
+    assert torch.allclose(big.mu, ref.mu, atol=1e-5) and torch.allclose(big.f, ref.f, atol=1e-5)
+    assert big.canvas == ref.canvas == pytest.approx((1.5, 1.0))
+    assert full.masks.shape[-2:] == (64, 96)  # the trainer's path keeps the input size

@@ -79,7 +79,7 @@ class GeneratorObjective(nn.Module):
         if segmenter_only:
             return self._segmenter_stage(images, labels, w)
         size = tuple(images.shape[-2:])
-        enc = model.encode(images, existence=existence, generator=g)
+        enc = model.encode(images, existence=existence, generator=g, native=False)
         z = enc.textons
         recon = model.decode(z, size)
         logs: dict[str, Tensor] = {}
@@ -140,7 +140,7 @@ class GeneratorObjective(nn.Module):
         T = type(T)(T.A.to(images), T.t.to(images))
         warped, valid = warp_images(images, T)
         z_t = z.affine(T.A.unsqueeze(1), T.t.unsqueeze(1))
-        enc_t = model.encode(warped, existence=existence, generator=g)
+        enc_t = model.encode(warped, existence=existence, generator=g, native=False)
         masks_t, valid_m = warp_images(enc.masks, T)
         inside = ((z_t.mu >= 0) & (z_t.mu <= torch.tensor(z.canvas).to(z_t.mu))).all(-1)
         csis = consistency_loss(z_t, enc_t.textons, masks_t * valid_m, enc_t.masks * valid_m,
