@@ -7,9 +7,7 @@ from PIL import Image
 
 from cvt.raster import render_svg
 from cvt.svg import parse_svg
-from neuraltex.checkpoint import export_model
 from neuraltex.cli import main
-from neuraltex.model import build_model
 from neuraltex.segments import Segments, drop_background, from_labels, from_weights
 from neuraltex.vectorize import VectorizeParams, fit_fill, simplify, to_svg, vectorize
 
@@ -111,25 +109,16 @@ def test_simplify_keeps_corners_drops_collinear():
     assert len(simplify(square, 0.5)) == 4
 
 
-@pytest.fixture(scope="module")
-def ckpt(tmp_path_factory):
-    config = {"preset": "tiny", "image_size": 32, "estimation_size": None, "eps": 1e-5,
-              "temperature": 1.0, "cutoff": None}
-    torch.manual_seed(0)
-    path = tmp_path_factory.mktemp("model") / "tiny.safetensors"
-    export_model(path, build_model(config).state_dict(), config, {"steps": 0})
-    return str(path)
-
-
 @pytest.mark.parametrize("extra", [[], ["--source", "splat", "--background", "grid"],
                                    ["--mode", "ellipse"]])
-def test_cli_model_path(tmp_path, ckpt, extra):
+def test_cli_model_path(tmp_path, tiny_checkpoint, extra):
     img, _ = disc_image(32)
     Image.fromarray((img * 255).astype(np.uint8)).save(tmp_path / "in.png")
     out = tmp_path / "out.svg"
-    assert main(["vectorize", str(tmp_path / "in.png"), "-o", str(out), "--checkpoint", ckpt,
-                 *extra]) == 0
+    assert main(["vectorize", str(tmp_path / "in.png"), "-o", str(out),
+                 "--checkpoint", tiny_checkpoint, *extra]) == 0
     ex = parse_svg(out.read_bytes())
+    assert len(ex.elements) > 1
     for e in ex.elements:
         if e.node.get("data-background") != "1":
             assert e.node.get("id").startswith("texton-")
