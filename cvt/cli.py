@@ -45,7 +45,9 @@ def build_parser() -> argparse.ArgumentParser:
     syn.add_argument("--seed", type=int, default=0)
     syn.add_argument("--levels", type=int, default=3, help="hierarchy levels (1-3)")
     syn.add_argument("--iterations", type=int, default=7, help="iterations per level")
-    syn.add_argument("--init", choices=("patch", "random"), default="patch")
+    syn.add_argument("--init", choices=("patch", "random", "gaussian"), default="patch",
+                     help="first-level output: random input patches (default), random samples, "
+                     "or whole elements placed by their Gaussians (centres, covariances)")
     syn.add_argument("--method", choices=METHODS, default="full",
                      help="full (default): clustering step, filtering and depth order; "
                      "no-clustering: fixed cluster ids; spectral: spectral clustering into "

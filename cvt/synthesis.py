@@ -19,7 +19,7 @@ import torch
 from cvt.assignment import add_missing, assign_positions
 from cvt.clustering import ClusteringParams, ClusteringStats, changed_samples, cluster_step
 from cvt.depth import cluster_preferences, order_by_preferences
-from cvt.initialization import patch_init, random_init
+from cvt.initialization import gaussian_init, patch_init, random_init
 from cvt.neighborhood import DistanceParams, distance_batched, neighborhoods, pair_space
 from cvt.pair_votes import PairVotes, pair_votes
 from cvt.reconstruction import Placement, filter_placements, merge_duplicates, reconstruct, upsample
@@ -49,7 +49,7 @@ class SynthesisConfig:
     # inwards and the pattern contracts over the iterations.
     in_margin: float = 1.5  # extra input radius, in units of delta
     k_in_extra: int = 8
-    init: str = "patch"  # or "random"
+    init: str = "patch"  # or "random", or "gaussian" (whole elements by their Gaussians)
     first_passes: int = 5  # PatchMatch passes on a level's first iteration (seed 001)
     passes: int = 2
     interior_margin: float = 0.5  # input centers keep this many radii from the border
@@ -143,6 +143,8 @@ def _synthesize(exemplar: Exemplar, size, cfg: SynthesisConfig, on_iteration) ->
                   for k, lv in enumerate(levels)]
     if cfg.init == "random":
         out = random_init(res.inputs[0], in_box, out_box, gen)
+    elif cfg.init == "gaussian":
+        out = gaussian_init(res.inputs[0], in_box, out_box, 2 * levels[0].radius, gen)
     else:
         out = patch_init(res.inputs[0], in_box, out_box, 2 * levels[0].radius, gen)
     _tick(res, 0, "init", t)

@@ -1,5 +1,7 @@
 """`cvt synthesize --from-image`: raster image -> texton elements -> vector synthesis."""
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 import torch
@@ -91,3 +93,23 @@ def test_from_image_bad_input_exits_2(tmp_path, capsys, monkeypatch, args):
     err = capsys.readouterr().err.strip()
     assert code == 2 and err.startswith("cvt: error:") and len(err.splitlines()) == 1
     assert not (tmp_path / "out.svg").exists()
+
+
+def test_gaussian_init_copies_whole_elements_without_stacking():
+    from cvt.initialization import element_gaussians, gaussian_init
+    from cvt.svg import load_svg
+
+    inp = sample_exemplar(load_svg(Path(__file__).parents[1] / "cvt/exemplars/stars.svg"), 10.0)
+    ids, mu, cov = element_gaussians(inp)
+    one = inp.cluster == ids[0]
+    assert torch.allclose(mu[0], inp.pos[one].mean(0))
+    assert torch.allclose(cov[0], torch.cov(inp.pos[one].T, correction=0), atol=1e-4)
+    x0, y0, w, h = 0, 0, 200, 200
+    out = gaussian_init(inp, (x0, y0, w, h), (0, 0, 2 * w, 2 * h), 60.0,
+                        torch.Generator().manual_seed(0))
+    full = torch.bincount(inp.cluster)[inp.cluster[out.source]]
+    have = torch.bincount(out.cluster)[out.cluster]
+    inner = out.pos.max(1).values < 2 * w - 30  # clusters away from the clipped far sides
+    assert torch.equal(full[inner], have[inner])  # whole elements, never cut by patch borders
+    centres = torch.stack([out.pos[out.cluster == c].mean(0) for c in out.cluster.unique()])
+    assert torch.pdist(centres).min() > 1.0  # no two copies stacked on one centre
