@@ -47,6 +47,7 @@ class VectorElement:
     rings: list[np.ndarray]  # each (P, 2) x, y
     fill: Fill
     area: int  # pixels
+    ellipse: tuple[float, float, float, float, float] | None = None  # cx, cy, rx, ry, degrees
 
 
 @dataclass
@@ -225,6 +226,16 @@ def path_data(rings: list[np.ndarray]) -> str:
     return "".join(parts)
 
 
+def _shape(e: VectorElement, paint: str, seam: float) -> str:
+    if e.ellipse is not None:  # --mode ellipse: a real <ellipse>, editable as one
+        cx, cy, rx, ry, deg = (_f(v) for v in e.ellipse)
+        return (f'<ellipse cx="{cx}" cy="{cy}" rx="{rx}" ry="{ry}" '
+                f'transform="rotate({deg} {cx} {cy})" fill="{paint}"/>')
+    return (f'<path d="{path_data(e.rings)}" fill="{paint}" fill-rule="evenodd"'
+            + (f' stroke="{paint}" stroke-width="{_f(seam)}" stroke-linejoin="round"'
+               if seam > 0 else "") + "/>")
+
+
 def to_svg(vec: Vectorized, seg: Segments, seam: float = 0.8) -> str:
     """The SVG document: a background group, then one ``<g>`` per element, bottom to top."""
     H, W = vec.size
@@ -249,9 +260,7 @@ def to_svg(vec: Vectorized, seg: Segments, seam: float = 0.8) -> str:
                  "data-existence": f"{float(seg.existence[k]):.3f}",
                  "data-kind": f"k{int(vec.kinds[k])}", "data-order": str(int(seg.order[k]))}
         body.append("<g " + " ".join(f"{a}={quoteattr(v)}" for a, v in attrs.items()) + ">"
-                    f'<path d="{path_data(e.rings)}" fill="{paint}" fill-rule="evenodd"'
-                    + (f' stroke="{paint}" stroke-width="{_f(seam)}" stroke-linejoin="round"'
-                       if seam > 0 else "") + "/></g>")
+                    + _shape(e, paint, seam) + "</g>")
     defs_text = ["<defs>", *defs, "</defs>"] if defs else []
     return "\n".join([head, *defs_text, *body, "</svg>"]) + "\n"
 
@@ -263,18 +272,20 @@ def ellipses(image: np.ndarray, seg: Segments, mu: np.ndarray, cov: np.ndarray,
     textons' normalized units (short side = 1), one row per segment."""
     import torch
 
-    from neuraltex.overlay import ellipse_points
+    from neuraltex.overlay import ellipse_axes, ellipse_points
 
     p = params or VectorizeParams()
     H, W = seg.labels.shape
     S = min(H, W)
-    pts = ellipse_points(torch.as_tensor(mu, dtype=torch.float64) * S,
-                         torch.as_tensor(cov, dtype=torch.float64) * S * S, level, n=17)
-    rings = pts[:, :-1].numpy()  # (K, 16, 2), the last point repeats the first
+    mu_px = torch.as_tensor(mu, dtype=torch.float64) * S  # (K, 2)
+    cov_px = torch.as_tensor(cov, dtype=torch.float64) * S * S  # (K, 2, 2)
+    rings = ellipse_points(mu_px, cov_px, level, n=17)[:, :-1].numpy()  # (K, 16, 2)
+    a, b, ang = (x.double().numpy() for x in ellipse_axes(cov_px, level))
     flat = seg.labels.ravel()
     area = np.bincount(flat[flat >= 0], minlength=seg.count)
     rgb = image.reshape(-1, 3)
-    elements = [VectorElement(int(k), [rings[k]], Fill(rgb[flat == k].mean(0)), int(area[k]))
+    elements = [VectorElement(int(k), [rings[k]], Fill(rgb[flat == k].mean(0)), int(area[k]),
+                              (*mu_px[k].tolist(), a[k], b[k], np.degrees(ang[k])))
                 for k in np.argsort(seg.order, kind="stable") if area[k] > 0]
     return Vectorized(elements, _background(image, seg.labels, p), kinds_of(seg.features, p.kinds),
                       (H, W))

@@ -124,6 +124,25 @@ def test_cli_model_path(tmp_path, tiny_checkpoint, extra):
             assert e.node.get("id").startswith("texton-")
             assert e.node.get("data-kind").startswith("k") and e.node.get("data-existence")
     assert render_svg(out.read_text()).shape == (32, 32, 3)
+    if "ellipse" in extra:
+        assert "<ellipse " in out.read_text() and "<path " not in out.read_text()
+
+
+def test_ellipse_mode_places_the_gaussian():
+    from neuraltex.vectorize import ellipses
+
+    img, labels = disc_image()
+    seg = from_labels(labels, img)
+    mu = np.zeros((seg.count, 2))
+    cov = np.tile(np.eye(2) * 1e-3, (seg.count, 1, 1))
+    x, y, r, c = DISCS[1]
+    mu[2], cov[2] = np.array([x, y]) / 64, np.diag([(r / 64) ** 2, (r / 2 / 64) ** 2])
+    vec = ellipses(img, seg, mu, cov)
+    e = next(e for e in vec.elements if e.segment == 2)
+    assert np.allclose(e.ellipse[:4], (x, y, r, r / 2)) and np.allclose(e.fill.colour, c)
+    parsed = parse_svg(to_svg(vec, seg).encode()).elements
+    node = next(n for n in parsed if n.node.get("id") == "texton-2")  # label 2 = DISCS[1]
+    assert np.allclose(node.bbox, (x - r, y - r / 2, x + r, y + r / 2), atol=0.05)
 
 
 def test_cli_felzenszwalb_and_bad_input(tmp_path, capsys):
