@@ -59,8 +59,10 @@ class Vectorized:
     extra: dict = field(default_factory=dict)
 
 
-def trace(mask: np.ndarray, margin: np.ndarray, params: VectorizeParams) -> list[np.ndarray]:
-    """Closed outline rings (outer and holes) of a boolean mask. Shape: (H, W) -> [(P, 2)]."""
+def trace(mask: np.ndarray, margin: np.ndarray, params: VectorizeParams,
+          offset: tuple[int, int] = (0, 0)) -> list[np.ndarray]:
+    """Closed outline rings (outer and holes) of a boolean mask, in pixels of an image whose
+    crop at ``offset`` = (row, col) the mask is. Shape: (h, w) -> [(P, 2)]."""
     from skimage.measure import find_contours
 
     ys, xs = np.nonzero(mask)
@@ -74,7 +76,7 @@ def trace(mask: np.ndarray, margin: np.ndarray, params: VectorizeParams) -> list
         if len(c) < 3 or _area(c) < params.min_area:
             continue
         # padded index -> pixel-centre coordinates: x = col - 1 + x0 + 0.5
-        rings.append(np.stack([c[:, 1] + x0 - 0.5, c[:, 0] + y0 - 0.5], 1))
+        rings.append(np.stack([c[:, 1] + x0 + offset[1] - 0.5, c[:, 0] + y0 + offset[0] - 0.5], 1))
     return rings
 
 
@@ -166,21 +168,25 @@ def vectorize(image: np.ndarray, seg: Segments,
     H, W = seg.labels.shape
     if image.shape[:2] != (H, W):
         raise ValueError(f"image {image.shape[:2]} and segments {(H, W)} differ in size")
+    from scipy.ndimage import find_objects
+
     flat = seg.labels.ravel()
     area = np.bincount(flat[flat >= 0], minlength=seg.count)
-    yy, xx = np.mgrid[0:H, 0:W]
-    pos = np.stack([xx.ravel(), yy.ravel()], 1).astype(np.float64)  # (H*W, 2)
-    rgb = image.reshape(-1, 3).astype(np.float64)
+    boxes = find_objects(seg.labels + 1, max_label=seg.count)  # box of label k at [k]
     elements = []
     for k in np.argsort(seg.order, kind="stable"):  # back to front (larger order in front)
         if area[k] < p.min_area:
             continue
-        mask = seg.labels == k
-        rings = trace(mask, seg.margin, p)
+        rows, cols = boxes[k]
+        rows = slice(max(rows.start - 1, 0), min(rows.stop + 1, H))
+        cols = slice(max(cols.start - 1, 0), min(cols.stop + 1, W))
+        mask = seg.labels[rows, cols] == k  # (h, w) crop
+        rings = trace(mask, seg.margin[rows, cols], p, (rows.start, cols.start))
         if rings:
-            sel = mask.ravel()
-            elements.append(VectorElement(int(k), rings, fit_fill(pos[sel], rgb[sel], p),
-                                          int(area[k])))
+            yy, xx = np.nonzero(mask)
+            pos = np.stack([xx + cols.start, yy + rows.start], 1).astype(np.float64)  # (n, 2)
+            rgb = image[rows, cols][mask].astype(np.float64)  # (n, 3)
+            elements.append(VectorElement(int(k), rings, fit_fill(pos, rgb, p), int(area[k])))
     return Vectorized(elements, _background(image, seg.labels, p), kinds_of(seg.features, p.kinds),
                       (H, W))
 
