@@ -26,15 +26,28 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
 
     syn = sub.add_parser("synthesize", help="grow an SVG exemplar into a larger pattern")
-    syn.add_argument("exemplar", help="input SVG")
+    syn.add_argument("exemplar", nargs="?", help="input SVG (or give --from-image)")
     syn.add_argument("-o", "--output", required=True, help="output SVG")
+    img = syn.add_argument_group("from a raster image (vectorized into texton elements first)")
+    img.add_argument("--from-image", metavar="IMAGE",
+                     help="vectorize IMAGE (neuraltex vectorize) and use it as the exemplar")
+    img.add_argument("--segmenter", default="model", choices=("model", "felzenszwalb"),
+                     help="texton model (default) or the Felzenszwalb baseline")
+    img.add_argument("--checkpoint", help="texton model .safetensors (default: the shipped one)")
+    img.add_argument("--max-side", type=int, default=256,
+                     help="the image is downscaled to this side first (default 256)")
+    img.add_argument("--exemplar-out", help="also write the vectorized exemplar SVG here")
+    img.add_argument("--w-a", type=float,
+                     help="weight of the texton-kind appearance term A(s) (default 1; 0: off)")
     syn.add_argument("--width", type=float, help="output width in exemplar user units")
     syn.add_argument("--height", type=float, help="output height in exemplar user units")
     syn.add_argument("--scale", type=float, help="output size as a multiple of the exemplar's")
     syn.add_argument("--seed", type=int, default=0)
     syn.add_argument("--levels", type=int, default=3, help="hierarchy levels (1-3)")
     syn.add_argument("--iterations", type=int, default=7, help="iterations per level")
-    syn.add_argument("--init", choices=("patch", "random"), default="patch")
+    syn.add_argument("--init", choices=("patch", "random", "gaussian"), default="patch",
+                     help="first-level output: random input patches (default), random samples, "
+                     "or whole elements placed by their Gaussians (centres, covariances)")
     syn.add_argument("--method", choices=METHODS, default="full",
                      help="full (default): clustering step, filtering and depth order; "
                      "no-clustering: fixed cluster ids; spectral: spectral clustering into "
@@ -87,7 +100,11 @@ def _check_args(args) -> None:
         raise InputError("--iterations must be between 1 and 100")
     if args.threads < 1:
         raise InputError("--threads must be >= 1")
-    for name in ("w_f", "w_l", "w_s"):
+    if (args.exemplar is None) == (args.from_image is None):
+        raise InputError("give an exemplar SVG or --from-image IMAGE (one of the two)")
+    if args.max_side < 16:
+        raise InputError("--max-side must be >= 16")
+    for name in ("w_f", "w_l", "w_s", "w_a"):
         v = getattr(args, name)
         if v is not None and not (math.isfinite(v) and v >= 0):
             raise InputError(f"--{name.replace('_', '-')} must be a finite number >= 0")
@@ -97,7 +114,8 @@ def cmd_synthesize(args) -> int:
     from cvt.svg import load_svg
 
     _check_args(args)
-    ex = load_svg(args.exemplar)  # bad input fails here, before torch is even imported
+    image = _from_image(args) if args.from_image else None
+    ex = image.exemplar if image else load_svg(args.exemplar)  # bad input fails here
     size = _output_size(args, ex)
 
     from tqdm import tqdm
@@ -107,9 +125,10 @@ def cmd_synthesize(args) -> int:
     from cvt.sampling import sample_exemplar
     from cvt.synthesis import SynthesisConfig, result_svg
     weights = {k: v for k, v in (("w_l", args.w_l), ("w_s", args.w_s)) if v is not None}
+    extra = {k: v for k, v in (("w_f", args.w_f), ("w_a", args.w_a)) if v is not None}
     cfg = SynthesisConfig(levels=args.levels, iterations=args.iterations, seed=args.seed,
                           init=args.init, threads=args.threads, cluster=ClusteringParams(**weights),
-                          **({"w_f": args.w_f} if args.w_f is not None else {}))
+                          **extra)
     fine = sample_exemplar(ex, cfg.deltas[-1] * ex.size)  # cheap size guard before the work
     est = len(fine) * size[0] * size[1] / (ex.viewbox[2] * ex.viewbox[3])
     if est > MAX_FINE_SAMPLES:
@@ -134,7 +153,12 @@ def cmd_synthesize(args) -> int:
         res = run_method(args.method, ex, size, cfg, on_iteration)
     finally:
         bar.close()
-    write_text_atomic(args.output, result_svg(ex, res))
+    text = result_svg(ex, res)
+    if image is not None:
+        from cvt.from_textons import with_backdrop
+
+        text = with_backdrop(text, image.backdrop)
+    write_text_atomic(args.output, text)
     if args.preview:
         render_png(Path(args.output), Path(args.preview))
     if debug is not None:
@@ -150,6 +174,27 @@ def cmd_synthesize(args) -> int:
     else:
         print(f"wrote {args.output}: {len(res.placements)} elements")
     return 0
+
+
+def _from_image(args):
+    """Vectorize --from-image into an exemplar (and write it to --exemplar-out)."""
+    from cvt.from_textons import image_exemplar, vectorize_image
+    from neuraltex.cli import DEFAULT_MODEL
+
+    checkpoint = args.checkpoint
+    if args.segmenter == "model" and not checkpoint:
+        if not DEFAULT_MODEL.exists():
+            raise InputError("no default texton model is shipped yet; pass --checkpoint "
+                             "MODEL.safetensors or --segmenter felzenszwalb")
+        checkpoint = DEFAULT_MODEL
+    svg = vectorize_image(args.from_image, args.segmenter, checkpoint, max_side=args.max_side)
+    if args.exemplar_out:
+        write_text_atomic(args.exemplar_out, svg)
+    image = image_exemplar(svg)
+    if not args.quiet:
+        print(f"vectorized {args.from_image}: {len(image.exemplar.elements)} elements",
+              file=sys.stderr)
+    return image
 
 
 def render_png(svg_path: Path, png_path: Path, background: str = "white") -> None:

@@ -4,6 +4,9 @@ Patch init: tile the output with square cells of size 2r and fill each with the 
 random input patch of the same size. Samples of one input cluster inside one copied patch share
 a fresh cluster id; clusters cut at the patch border get their features recomputed.
 Random init (option): samples at random places copying random input samples, one cluster each.
+Gaussian init (option, for texton exemplars): the same grid of random input patches, but each
+cell copies whole elements, those whose Gaussian centre lies in the patch, and skips an element
+whose centre falls inside the M = 1 ellipse of one already placed (cvt.from_textons).
 """
 
 from __future__ import annotations
@@ -75,3 +78,58 @@ def random_init(inp: Samples, in_box, out_box, gen: torch.Generator) -> Samples:
     s = inp.select(src)
     return s.with_(pos=pos, cluster=torch.arange(n), source=src,
                    feat=torch.zeros_like(s.feat))
+
+
+def element_gaussians(inp: Samples) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+    """Per input cluster: ids (E,), sample mean (E, 2) and covariance (E, 2, 2); for texton
+    elements these are the segment moments of seed 003 eqs. 4.3-4.4."""
+    ids, local = torch.unique(inp.cluster, return_inverse=True)
+    n = torch.bincount(local).to(inp.pos.dtype)[:, None]  # (E, 1)
+    mu = torch.zeros(len(ids), 2, dtype=inp.pos.dtype).index_add_(0, local, inp.pos) / n
+    d = inp.pos - mu[local]  # (N, 2)
+    outer = d[:, :, None] * d[:, None, :]  # (N, 2, 2)
+    cov = torch.zeros(len(ids), 2, 2, dtype=inp.pos.dtype).index_add_(0, local, outer)
+    return ids, mu, cov / n[:, :, None]
+
+
+def gaussian_init(inp: Samples, in_box, out_box, patch: float, gen: torch.Generator) -> Samples:
+    """Copy whole elements of random input patches of side ``patch`` onto a grid over
+    ``out_box``, by their Gaussians (see the module docstring). Boxes are (x0, y0, x1, y1)."""
+    ix0, iy0, ix1, iy1 = in_box
+    ox0, oy0, ox1, oy1 = out_box
+    ids, mu, cov = element_gaussians(inp)
+    floor = (0.075 * patch) ** 2  # ~ (delta / 2)^2 at the default levels: tiny elements too
+    prec = torch.linalg.inv(cov + floor * torch.eye(2, dtype=cov.dtype))  # (E, 2, 2)
+    pw, ph = min(patch, ix1 - ix0), min(patch, iy1 - iy0)
+    nx, ny = math.ceil((ox1 - ox0) / pw), math.ceil((oy1 - oy0) / ph)
+    parts, centres, precs = [], [], []
+    for gy in range(ny):
+        for gx in range(nx):
+            u = torch.rand(2, generator=gen, dtype=torch.float64)
+            sx = ix0 + float(u[0]) * (ix1 - ix0 - pw)
+            sy = iy0 + float(u[1]) * (iy1 - iy0 - ph)
+            shift = torch.tensor([ox0 + gx * pw - sx, oy0 + gy * ph - sy], dtype=inp.pos.dtype)
+            inside = ((mu[:, 0] >= sx) & (mu[:, 0] < sx + pw)
+                      & (mu[:, 1] >= sy) & (mu[:, 1] < sy + ph))
+            for e in torch.nonzero(inside).flatten().tolist():
+                c = mu[e] + shift
+                if centres and _covered(c, torch.stack(centres), torch.stack(precs)):
+                    continue
+                idx = torch.nonzero(inp.cluster == ids[e]).flatten()
+                s = inp.select(idx)
+                parts.append(s.with_(pos=s.pos + shift,
+                                     cluster=torch.full_like(s.cluster, len(parts)), source=idx))
+                centres.append(c)
+                precs.append(prec[e])
+    if not parts:
+        return patch_init(inp, in_box, out_box, patch, gen)
+    out = Samples.concat(parts)
+    keep = (out.pos[:, 0] <= ox1) & (out.pos[:, 1] <= oy1)
+    out = out.select(torch.nonzero(keep).flatten())
+    return _refresh_cut_features(out, inp)
+
+
+def _covered(c: torch.Tensor, centres: torch.Tensor, precs: torch.Tensor) -> bool:
+    """Whether point ``c`` (2,) lies inside the M = 1 ellipse of any placed Gaussian."""
+    d = c - centres  # (P, 2)
+    return bool(((d[:, None, :] @ precs @ d[:, :, None]).flatten() < 1).any())

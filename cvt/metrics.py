@@ -239,10 +239,16 @@ def layering(ref: Layout, out: Layout, clear: float = 0.8) -> float:
 
 # -- 5. appearance -------------------------------------------------------------------------
 def appearance(ref: Layout, out: Layout, seed: int = 0) -> float:
+    return patch_swd(out.image, ref.image, seed)
+
+
+def patch_swd(a: np.ndarray, b: np.ndarray, seed: int = 0) -> float:
+    """Sliced Wasserstein distance of multi-scale 4x4 patches of two RGB images, x 1000.
+    Shape: (H, W, 3), (H', W', 3) float in [0, 1]."""
     from neuraltex.losses import sliced_wasserstein_patches
 
-    x = torch.from_numpy(out.image).permute(2, 0, 1)[None]  # (1, 3, H, W)
-    y = torch.from_numpy(ref.image).permute(2, 0, 1)[None]
+    x = torch.from_numpy(np.ascontiguousarray(a, np.float32)).permute(2, 0, 1)[None]
+    y = torch.from_numpy(np.ascontiguousarray(b, np.float32)).permute(2, 0, 1)[None]
     gen = torch.Generator().manual_seed(seed)
     return 1000 * float(sliced_wasserstein_patches(x, y, patch=4, projections=64, scales=3,
                                                    generator=gen))

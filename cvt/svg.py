@@ -79,6 +79,9 @@ class Exemplar:
     root_attrs: dict[str, str] = field(default_factory=dict)  # inherited presentation attrs
     defs: list[ET.Element] = field(default_factory=list)
     unit_scale: tuple[float, str] = (1.0, "")  # root width per user unit, and its unit suffix
+    # Optional appearance attributes A (seed 000 sec. 4.2), one row per element, (E, D); e.g.
+    # one-hot texton kinds (cvt.from_textons). None: spatial information only, as in the paper.
+    appearance: np.ndarray | None = None
 
     @property
     def size(self) -> float:

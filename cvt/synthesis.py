@@ -19,7 +19,7 @@ import torch
 from cvt.assignment import add_missing, assign_positions
 from cvt.clustering import ClusteringParams, ClusteringStats, changed_samples, cluster_step
 from cvt.depth import cluster_preferences, order_by_preferences
-from cvt.initialization import patch_init, random_init
+from cvt.initialization import gaussian_init, patch_init, random_init
 from cvt.neighborhood import DistanceParams, distance_batched, neighborhoods, pair_space
 from cvt.pair_votes import PairVotes, pair_votes
 from cvt.reconstruction import Placement, filter_placements, merge_duplicates, reconstruct, upsample
@@ -41,6 +41,7 @@ class SynthesisConfig:
     deltas: tuple[float, ...] = DEFAULT_DELTAS
     radii: tuple[float, ...] = DEFAULT_RADII
     w_f: float = 10.0
+    w_a: float = 1.0  # appearance weight, used when the exemplar has appearance attributes
     c_out: float = 4.0
     k_max: int = 24  # neighborhood size cap
     # Input neighborhoods reach a little farther than output ones, so an output sample near
@@ -48,7 +49,7 @@ class SynthesisConfig:
     # inwards and the pattern contracts over the iterations.
     in_margin: float = 1.5  # extra input radius, in units of delta
     k_in_extra: int = 8
-    init: str = "patch"  # or "random"
+    init: str = "patch"  # or "random", or "gaussian" (whole elements by their Gaussians)
     first_passes: int = 5  # PatchMatch passes on a level's first iteration (seed 001)
     passes: int = 2
     interior_margin: float = 0.5  # input centers keep this many radii from the border
@@ -135,12 +136,15 @@ def _synthesize(exemplar: Exemplar, size, cfg: SynthesisConfig, on_iteration) ->
     res = SynthesisResult([], size, [], [])
     res.level_timings = [dict.fromkeys(STEPS, 0.0) for _ in levels]
     boxes = np.stack([e.bbox for e in exemplar.elements])  # (E, 4)
+    app = None if exemplar.appearance is None else torch.as_tensor(exemplar.appearance)
 
     t = time.perf_counter()
     res.inputs = [sample_exemplar(exemplar, lv.delta, seed=cfg.seed + k)
                   for k, lv in enumerate(levels)]
     if cfg.init == "random":
         out = random_init(res.inputs[0], in_box, out_box, gen)
+    elif cfg.init == "gaussian":
+        out = gaussian_init(res.inputs[0], in_box, out_box, 2 * levels[0].radius, gen)
     else:
         out = patch_init(res.inputs[0], in_box, out_box, 2 * levels[0].radius, gen)
     _tick(res, 0, "init", t)
@@ -148,7 +152,7 @@ def _synthesize(exemplar: Exemplar, size, cfg: SynthesisConfig, on_iteration) ->
     for li, lv in enumerate(levels):
         inp = res.inputs[li]
         out, m, votes = _run_level(li, lv, inp, out, in_box, out_box, cfg, gen, res,
-                                   on_iteration)
+                                   on_iteration, app)
         t = time.perf_counter()
         shape = ShapeEnergy(out.pos, m.center, inp.pos, inp.cluster, lv.delta)
         res.placements = reconstruct(out, inp, m, lv.delta, shape)
@@ -196,6 +200,20 @@ def depth_order(placements: list[Placement], out: Samples, m: Matches, inp: Samp
     return [placements[k] for k in order_by_preferences(sub, key)]
 
 
+def feature_table(out: Samples, inp: Samples, app: torch.Tensor | None,
+                  cfg: SynthesisConfig) -> torch.Tensor:
+    """Eq. 3's per-sample-pair feature term, before the w_f / 2 of :func:`pair_space`: chi2 of
+    shape contexts, plus (w_a / (w_f / 2)) |A(s_o) - A(s_i)|^2 when the exemplar has appearance
+    attributes ``app`` (E, D), read through each sample's element (sec. 4.2).
+    Shape: -> (N_out, N_in)."""
+    table = chi2_table(out.feat, inp.feat)
+    if app is None or cfg.w_a <= 0 or cfg.w_f <= 0:
+        return table
+    a = app.to(table.dtype)
+    d2 = torch.cdist(a[out.element.clamp_min(0)], a[inp.element]) ** 2  # (N_out, N_in)
+    return table + (cfg.w_a / (0.5 * cfg.w_f)) * d2
+
+
 def _input_index(inp: Samples, in_box, lv: Level, cfg: SynthesisConfig):
     """Input neighborhoods, allowed centers, their lookup grid and the first search window."""
     in_nbr = neighborhoods(inp.pos, lv.radius + cfg.in_margin * lv.delta,
@@ -218,11 +236,11 @@ def nearest_neighborhoods(out: Samples, inp: Samples, in_box, lv: Level, cfg: Sy
 
 
 def _run_level(li: int, lv: Level, inp: Samples, out: Samples, in_box, out_box,
-               cfg: SynthesisConfig, gen, res: SynthesisResult, on_iteration):
+               cfg: SynthesisConfig, gen, res: SynthesisResult, on_iteration, app=None):
     t = time.perf_counter()
     dist = DistanceParams(lv.delta, cfg.w_f, cfg.c_out)
     in_nbr, valid, grid, window0 = _input_index(inp, in_box, lv, cfg)
-    table = chi2_table(out.feat, inp.feat)  # (N_out, N_in), rows refreshed when clusters change
+    table = feature_table(out, inp, app, cfg)  # (N_out, N_in), rows refreshed on cluster changes
     field_ = _start_field(out, valid, gen)
     _tick(res, li, "search", t)
     m = votes = None
@@ -243,7 +261,7 @@ def _run_level(li: int, lv: Level, inp: Samples, out: Samples, in_box, out_box,
         if cfg.clustering != "none":
             votes = pair_votes(m, out.pos, inp.cluster, inp.z,
                                max(cfg.cluster.lam, 2.0) * lv.delta)
-            out, table = _cluster(out, m, inp, votes, table, lv, cfg, gen, res, li, it)
+            out, table = _cluster(out, m, inp, votes, table, lv, cfg, gen, res, li, it, app)
         _tick(res, li, "clustering", t)
         t = time.perf_counter()
         field_ = m.center
@@ -252,7 +270,7 @@ def _run_level(li: int, lv: Level, inp: Samples, out: Samples, in_box, out_box,
                               min_new=cfg.new_cluster_share)
             if len(new):
                 out = out.cat(new)
-                table = torch.cat([table, chi2_table(new.feat, inp.feat)])
+                table = torch.cat([table, feature_table(new, inp, app, cfg)])
                 field_ = torch.cat([field_, new.source])
         _tick(res, li, "assignment", t)
         res.energies.append((li, it, m.energy))
@@ -262,7 +280,7 @@ def _run_level(li: int, lv: Level, inp: Samples, out: Samples, in_box, out_box,
 
 
 def _cluster(out: Samples, m: Matches, inp: Samples, votes: PairVotes, table, lv: Level,
-             cfg: SynthesisConfig, gen, res: SynthesisResult, li: int, it: int):
+             cfg: SynthesisConfig, gen, res: SynthesisResult, li: int, it: int, app=None):
     """One clustering step; shape contexts (and their chi2 rows) of changed clusters are
     recomputed. Returns the new samples and chi2 table."""
     if cfg.clustering == "greedy":
@@ -284,7 +302,7 @@ def _cluster(out: Samples, m: Matches, inp: Samples, votes: PairVotes, table, lv
         feat[idx] = shape_contexts(out.pos[idx], labels[idx])
         out = out.with_(feat=feat)
         table = table.clone()
-        table[idx] = chi2_table(feat[idx], inp.feat)
+        table[idx] = feature_table(out.select(idx), inp, app, cfg)
     return out, table
 
 

@@ -233,6 +233,9 @@ def build_parser() -> argparse.ArgumentParser:
     _model_command(sub, "decode", cmd_decode, "textons file -> image", "textons", IMAGE_OUT)
     _model_command(sub, "reconstruct", cmd_reconstruct, "image -> textons -> image", "image",
                    IMAGE_OUT)
+    from neuraltex.cli_vectorize import add_vectorize_command
+
+    add_vectorize_command(sub)
     p = _model_command(sub, "overlay", cmd_overlay, "picture of an image's textons", "image",
                        IMAGE_OUT, size=False)
     p.add_argument("--svg", type=Path, help="also write the Gaussians as SVG ellipses")

@@ -36,3 +36,23 @@ def single(mu, cov, f=(1.0,), delta=1.0, v=(1.0, 0.0), order=0) -> Textons:
 @pytest.fixture
 def textons() -> Textons:
     return make_textons()
+
+
+@pytest.fixture(scope="session")
+def tiny_checkpoint(tmp_path_factory) -> str:
+    """An untrained tiny model export, for plumbing tests of the model commands. Its mask head
+    is scaled up so the masks are nearly hard and some textons exist (p > 0.5, eq. 4.5)."""
+    from neuraltex.checkpoint import export_model
+    from neuraltex.model import build_model
+
+    config = {"preset": "tiny", "image_size": 32, "estimation_size": None, "eps": 1e-5,
+              "temperature": 1.0, "cutoff": None}
+    torch.manual_seed(0)
+    model = build_model(config)
+    with torch.no_grad():
+        last = model.segmenter.mask_head.embed[-1]
+        last.weight.mul_(100)
+        last.bias.mul_(100)
+    path = tmp_path_factory.mktemp("model") / "tiny.safetensors"
+    export_model(path, model.state_dict(), config, {"steps": 0})
+    return str(path)

@@ -1,0 +1,64 @@
+"""The ``neuraltex vectorize`` subcommand: an image as an SVG of its textons (or segments)."""
+
+from __future__ import annotations
+
+import argparse
+
+from neuraltex import cli as base
+from neuraltex.errors import InputError
+
+
+def cmd_vectorize(args: argparse.Namespace) -> int:
+    """Vectorize an image: one SVG element per texton (or segment), filled with the image's
+    colours, drawn in compositing order over a background layer."""
+    from neuraltex.fileio import write_text_atomic
+    from neuraltex.imageio import load_image
+    from neuraltex.segments import segment_image
+    from neuraltex.vectorize import VectorizeParams, ellipses, to_svg, vectorize
+
+    if args.output.suffix != ".svg":
+        raise InputError(f"{args.output}: must end in .svg")
+    if args.kinds < 1 or args.level <= 0:
+        raise InputError("--kinds must be >= 1 and --level > 0")
+    if args.mode == "ellipse" and args.segmenter != "model":
+        raise InputError("--mode ellipse needs the texton model (--segmenter model)")
+    model = base._model(args) if args.segmenter == "model" else None
+    image = load_image(args.image, max_side=args.max_side).to(args.device)
+    seg, textons = segment_image(image, args.segmenter, model, args.source,
+                                 background=not args.keep_backdrop)
+    params = VectorizeParams(gradient=not args.no_gradient, background=args.background,
+                             kinds=args.kinds)
+    arr = image.permute(1, 2, 0).cpu().numpy()
+    if args.mode == "ellipse":
+        t = textons.index(seg.index[None]) if seg.count else textons
+        vec = ellipses(arr, seg, t.mu[0].cpu().numpy(), t.cov[0].cpu().numpy(), params,
+                       args.level)
+    else:
+        vec = vectorize(arr, seg, params)
+    text = to_svg(vec, seg, params.seam)
+    write_text_atomic(args.output, text)
+    print(f"wrote {args.output}: {len(vec.elements)} elements of {seg.count} segments, "
+          f"{len(text.encode()) / 1024:.1f} KiB")
+    return 0
+
+
+def add_vectorize_command(sub) -> None:
+    p = base._model_command(sub, "vectorize", cmd_vectorize, "image -> SVG of its textons",
+                            "image", "output .svg", size=False)
+    p.add_argument("--mode", choices=("regions", "ellipse"), default="regions",
+                   help="regions (default): traced segment outlines; ellipse: the Gaussians")
+    p.add_argument("--segmenter", default="model",
+                   choices=("model", "felzenszwalb", "slic", "kmeans", "grid"),
+                   help="where segments come from (default: the texton model)")
+    p.add_argument("--source", choices=("masks", "splat"), default="masks",
+                   help="texton segments from the segmentation masks (default) or the "
+                   "composited splat weights")
+    p.add_argument("--background", choices=("flat", "grid"), default="flat",
+                   help="background layer: one colour or a coarse grid of rectangles")
+    p.add_argument("--no-gradient", action="store_true", help="flat fills only")
+    p.add_argument("--keep-backdrop", action="store_true",
+                   help="keep a segment that spans the whole image as an element (default: "
+                   "it becomes the background layer)")
+    p.add_argument("--kinds", type=int, default=4, help="kind clusters (default 4)")
+    p.add_argument("--level", type=float, default=1.0,
+                   help="Mahalanobis level of the ellipses (--mode ellipse, default 1)")

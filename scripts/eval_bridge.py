@@ -1,0 +1,203 @@
+"""Bridge benchmark: raster texture -> texton elements (SVG) -> 2x clustered vector synthesis.
+
+    python scripts/eval_bridge.py --checkpoint M.safetensors --limit 8 --real 3
+    python scripts/eval_bridge.py --checkpoint M.safetensors --limit 4 --synth --out docs/x.md
+    python scripts/eval_bridge.py --pipelines felzenszwalb --limit 8 --no-gradient
+
+Inputs: the first ``--limit`` procedural benchmark images (neuraltex.data.splits, families in
+turn; true texton masks known) and ``--real`` textures shipped with scikit-image (brick,
+gravel, grass, immunohistochemistry; loaded offline), all at ``--size`` px. Pipelines: the
+texton model (``model``) and the same vectorizer on Felzenszwalb segments (``felzenszwalb``).
+
+Vectorization: the SVG rasterized at the input size (resvg) vs the input: PSNR, SSIM; element
+count and SVG size; on procedural images also the true texton count and the matched IoU of the
+rasterized element shapes vs the true masks (neuraltex.metrics). ``--synth``: the 2x synthesis
+(cvt, ``--levels`` x ``--iterations``) rasterized vs the input by patch SWD x 1000 (as in the
+vector benchmark; ``ex_swd`` is the exemplar's own, the floor the synthesis inherits), its
+final energy and time. Means per pipeline and input kind at the end.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+from tqdm import tqdm
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+import torch  # noqa: E402
+
+from cvt.metrics import patch_swd  # noqa: E402
+from cvt.raster import element_mask, render_svg  # noqa: E402
+from neuraltex.fileio import write_text_atomic  # noqa: E402
+from neuraltex.segments import segment_image  # noqa: E402
+from neuraltex.vectorize import VectorizeParams, to_svg, vectorize  # noqa: E402
+
+REAL = ("brick", "gravel", "grass", "immunohistochemistry")
+VECTOR_COLS = ("psnr", "ssim", "elements", "gt", "miou", "kib", "t_vec")
+SYNTH_COLS = ("ex_swd", "swd", "out_elements", "energy", "t_syn")
+
+
+def inputs(limit: int, real: int, size: int):
+    """[(name, image (H, W, 3) float64 in [0, 1], true masks (H, W) or None)]."""
+    from PIL import Image
+
+    from neuraltex.data.splits import benchmark_split
+
+    out = []
+    for item in benchmark_split()[:limit]:
+        s = generate_at(item, size)
+        out.append((f"{item.family}-{item.index}", s.image.astype(np.float64), s.mask))
+    import skimage.data
+
+    for name in REAL[:real]:
+        im = getattr(skimage.data, name)()
+        pic = Image.fromarray(im).convert("RGB")
+        side = min(pic.size)  # centre square crop, then down to size
+        left, top = (pic.size[0] - side) // 2, (pic.size[1] - side) // 2
+        pic = pic.crop((left, top, left + side, top + side)).resize((size, size), Image.LANCZOS)
+        out.append((name, np.asarray(pic, np.float64) / 255, None))
+    return out
+
+
+def generate_at(item, size: int):
+    from neuraltex.data import generate
+
+    return generate(item.index, item.seed, size, family=item.family)
+
+
+def element_labels(svg: str, shape: tuple[int, int]) -> np.ndarray:
+    """Rasterized element shapes as labels, later elements on top; 0 = background layer."""
+    from cvt.svg import parse_svg
+
+    labels = np.zeros(shape, np.int64)
+    for k, e in enumerate(parse_svg(svg.encode()).elements):
+        if e.node.get("data-background") == "1":
+            continue
+        m = element_mask(e, 0.0, 0.0, np.zeros(2), 1.0)
+        y0, x0 = max(m.y0, 0), max(m.x0, 0)
+        crop = m.pixels[y0 - m.y0 : shape[0] - m.y0, x0 - m.x0 : shape[1] - m.x0]
+        view = labels[y0 : y0 + crop.shape[0], x0 : x0 + crop.shape[1]]
+        view[crop] = k + 1
+    return labels
+
+
+def vector_row(image: np.ndarray, gt, pipeline: str, model, params: VectorizeParams,
+               source: str) -> tuple[dict, str]:
+    from skimage.metrics import peak_signal_noise_ratio, structural_similarity
+
+    from neuraltex.metrics import matched_miou
+
+    t = time.perf_counter()
+    x = torch.from_numpy(image).permute(2, 0, 1).float()
+    seg, _ = segment_image(x, pipeline, model, source)
+    vec = vectorize(image, seg, params)
+    svg = to_svg(vec, seg, params.seam)
+    row = {"t_vec": time.perf_counter() - t, "elements": len(vec.elements),
+           "kib": len(svg.encode()) / 1024}
+    out = render_svg(svg).astype(np.float64)
+    row["psnr"] = peak_signal_noise_ratio(image, out, data_range=1.0)
+    row["ssim"] = structural_similarity(image, out, channel_axis=2, data_range=1.0)
+    row["gt"] = len(np.unique(gt[gt > 0])) if gt is not None else float("nan")
+    row["miou"] = matched_miou(element_labels(svg, gt.shape), gt) if gt is not None else math.nan
+    return row, svg
+
+
+def synth_row(image: np.ndarray, svg: str, args) -> dict:
+    from cvt.from_textons import image_exemplar, with_backdrop
+    from cvt.synthesis import SynthesisConfig, result_svg, synthesize
+
+    ie = image_exemplar(svg)
+    ex = ie.exemplar
+    size = (ex.viewbox[2] * 2, ex.viewbox[3] * 2)
+    cfg = SynthesisConfig(levels=args.levels, iterations=args.iterations, seed=args.seed,
+                          init=args.init, w_a=args.w_a)
+    t = time.perf_counter()
+    res = synthesize(ex, size, cfg)
+    row = {"t_syn": time.perf_counter() - t, "out_elements": len(res.placements),
+           "energy": res.energies[-1][2] if res.energies else math.nan}
+    out = render_svg(with_backdrop(result_svg(ex, res), ie.backdrop))
+    row["swd"] = patch_swd(out, image)
+    row["ex_swd"] = patch_swd(render_svg(svg), image)
+    return row
+
+
+def _fmt(v) -> str:
+    if isinstance(v, str):
+        return v
+    if v is None or (isinstance(v, float) and math.isnan(v)):
+        return "-"
+    return f"{v:.0f}" if isinstance(v, int) or abs(v) >= 100 else f"{v:.3f}"
+
+
+def _table(head, rows) -> str:
+    lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    return "\n".join(lines + ["| " + " | ".join(_fmt(v) for v in r) + " |" for r in rows])
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--checkpoint", help="texton model .safetensors (needed for 'model')")
+    ap.add_argument("--pipelines", nargs="+", default=["model", "felzenszwalb"],
+                    choices=("model", "felzenszwalb"))
+    ap.add_argument("--limit", type=int, default=8, help="procedural benchmark images")
+    ap.add_argument("--real", type=int, default=len(REAL), help=f"of {', '.join(REAL)}")
+    ap.add_argument("--size", type=int, default=128)
+    ap.add_argument("--source", choices=("masks", "splat"), default="masks")
+    ap.add_argument("--no-gradient", action="store_true")
+    ap.add_argument("--synth", action="store_true", help="also the 2x vector synthesis")
+    ap.add_argument("--levels", type=int, default=3)
+    ap.add_argument("--iterations", type=int, default=7)
+    ap.add_argument("--init", choices=("patch", "random", "gaussian"), default="patch")
+    ap.add_argument("--w-a", type=float, default=1.0, help="appearance (kind) weight")
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--out", help="also write the tables to this Markdown file")
+    args = ap.parse_args()
+    torch.set_num_threads(1)
+    model = None
+    if "model" in args.pipelines:
+        if not args.checkpoint:
+            ap.error("pipeline 'model' needs --checkpoint")
+        from neuraltex.model import load_model
+
+        model = load_model(args.checkpoint)
+    params = VectorizeParams(gradient=not args.no_gradient)
+    cols = VECTOR_COLS + (SYNTH_COLS if args.synth else ())
+    rows, results = [], []
+    data = inputs(args.limit, args.real, args.size)
+    bar = tqdm([(d, p) for d in data for p in args.pipelines], file=sys.stderr, unit="run")
+    for (name, image, gt), pipe in bar:
+        bar.set_description(f"{name} / {pipe}")
+        row, svg = vector_row(image, gt, pipe, model, params, args.source)
+        if args.synth:
+            row.update(synth_row(image, svg, args))
+        results.append((gt is not None, pipe, row))
+        rows.append([name, pipe] + [row[c] for c in cols])
+    bar.close()
+    means = []
+    for kind, label in ((True, "procedural"), (False, "real")):
+        for pipe in args.pipelines:
+            sel = [r for k, p, r in results if k == kind and p == pipe]
+            if sel:
+                means.append([label, pipe] + [float(np.nanmean([r[c] for r in sel])) if
+                                              not all(math.isnan(r[c]) for r in sel) else math.nan
+                                              for c in cols])
+    setting = (f"{args.size} px, source {args.source}, gradients "
+               f"{'off' if args.no_gradient else 'on'}"
+               + (f"; synthesis 2x, {args.levels} levels x {args.iterations} iterations, "
+                  f"init {args.init}, w_a {args.w_a:g}, seed {args.seed}" if args.synth else ""))
+    text = (f"Per input ({setting}):\n\n" + _table(["input", "pipeline", *cols], rows)
+            + "\n\nMeans:\n\n" + _table(["inputs", "pipeline", *cols], means) + "\n")
+    print(text)
+    if args.out:
+        write_text_atomic(args.out, text)
+
+
+if __name__ == "__main__":
+    main()
