@@ -89,6 +89,17 @@ def save_pil(pic: Image.Image, path: str | os.PathLike) -> None:
         pic.convert("RGB").save(tmp, format=WRITE_FORMATS[path.suffix.lower()])
 
 
+def stack_rows(rows: list[Image.Image], gap: int = 0) -> Image.Image:
+    """Pictures one under another on white, ``gap`` pixels apart (for contact sheets)."""
+    out = Image.new("RGB", (max(r.width for r in rows), sum(r.height + gap for r in rows)),
+                    "white")
+    y = 0
+    for r in rows:
+        out.paste(r, (0, y))
+        y += r.height + gap
+    return out
+
+
 def _to_pil(image: torch.Tensor) -> Image.Image:
     arr = (image.detach().float().clamp(0, 1).permute(1, 2, 0).cpu().numpy() * 255).round()
     return Image.fromarray(arr.astype(np.uint8))

@@ -20,7 +20,7 @@ from neuraltex.data.export import overlay, to_uint8  # noqa: E402
 from neuraltex.data.families import FAMILY_NAMES  # noqa: E402
 from neuraltex.data.splits import benchmark_split  # noqa: E402
 from neuraltex.errors import InputError, cli_entry  # noqa: E402
-from neuraltex.fileio import atomic_path  # noqa: E402
+from neuraltex.imageio import save_pil, stack_rows  # noqa: E402
 from neuraltex.metrics import texton_scores  # noqa: E402
 from neuraltex.overlay import draw_overlay  # noqa: E402
 
@@ -68,13 +68,7 @@ def main(argv: list[str] | None = None) -> int:
                                      "| input | ground truth | model textons | reconstruction",
                                      fill=(0, 0, 0))
             rows.append(row)
-    sheet = Image.new("RGB", (rows[0].width, sum(r.height for r in rows)), "white")
-    y = 0
-    for r in rows:
-        sheet.paste(r, (0, y))
-        y += r.height
-    with atomic_path(args.output) as tmp:
-        sheet.save(tmp, format="PNG")
+    save_pil(stack_rows(rows), args.output)
     print(f"wrote {args.output}")
     return 0
 

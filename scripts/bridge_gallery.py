@@ -24,7 +24,7 @@ sys.path.insert(0, str(ROOT))
 from cvt.from_textons import image_exemplar, with_backdrop  # noqa: E402
 from cvt.raster import render_svg  # noqa: E402
 from cvt.synthesis import SynthesisConfig, result_svg, synthesize  # noqa: E402
-from neuraltex.fileio import atomic_path  # noqa: E402
+from neuraltex.imageio import save_pil, stack_rows  # noqa: E402
 from neuraltex.overlay import draw_overlay, palette  # noqa: E402
 from neuraltex.segments import segment_image  # noqa: E402
 from neuraltex.vectorize import VectorizeParams, to_svg, vectorize  # noqa: E402
@@ -108,14 +108,7 @@ def main() -> None:
 
         model = load_model(args.checkpoint)
     rows = [row(n, load_input(n, args.size), model, args) for n in tqdm(args.names)]
-    sheet = Image.new("RGB", (max(r.width for r in rows), sum(r.height + 10 for r in rows)),
-                      "white")
-    y = 0
-    for r in rows:
-        sheet.paste(r, (0, y))
-        y += r.height + 10
-    with atomic_path(args.out) as tmp:
-        sheet.save(tmp, format="PNG")
+    save_pil(stack_rows(rows, gap=10), args.out)
     print(f"wrote {args.out}")
 
 

@@ -13,7 +13,7 @@ from pathlib import Path
 from PIL import Image, ImageDraw
 from tqdm import tqdm
 
-from neuraltex.fileio import atomic_path
+from neuraltex.imageio import save_pil, stack_rows
 
 EXEMPLARS = Path(__file__).resolve().parents[1] / "cvt" / "exemplars"
 
@@ -54,14 +54,7 @@ def main() -> None:
         ImageDraw.Draw(row).text((0, 2), f"{name}: exemplar | 2x synthesis", fill="black")
         rows.append(row)
         del ex
-    width = max(r.width for r in rows)
-    sheet = Image.new("RGB", (width, sum(r.height + 10 for r in rows)), "white")
-    y = 0
-    for r in rows:
-        sheet.paste(r, (0, y))
-        y += r.height + 10
-    with atomic_path(args.out) as tmp:
-        sheet.save(tmp, format="PNG")
+    save_pil(stack_rows(rows, gap=10), args.out)
     print(f"wrote {args.out}")
 
 

@@ -19,6 +19,7 @@ import torch
 from PIL import Image, ImageDraw
 
 from neuraltex.cli import DEFAULT_MODEL
+from neuraltex.imageio import stack_rows
 
 SIZE = 128
 LABEL_H = 14
@@ -95,7 +96,8 @@ class Gallery:
                               for t in (0.25, 0.5, 0.75)] + [("B", b)]
         wa, wb = texture(3, "discs", (SIZE, 3 * SIZE)), texture(4, "stones", (SIZE, 3 * SIZE))
         wide = self.dec(interpolate_spatially(self.enc(wa), self.enc(wb)), (SIZE, 3 * SIZE))
-        self.save("interpolate", _stack([strip(tiles), strip([("spatial, A -> B", wide)])]))
+        rows = [strip(tiles), strip([("spatial, A -> B", wide)])]
+        self.save("interpolate", stack_rows(rows, gap=4))
 
     def vary(self) -> None:
         from neuraltex.edit.vary import vary
@@ -146,7 +148,7 @@ class Gallery:
             frames = [self.dec(f)[0] for f in animate(t, flow, 16)]
             save_frames(frames, self.out / f"edit_animate_{flow}.gif", fps=8)
             rows.append(strip([(f"{flow} t={4 * k / 16:g}", frames[k]) for k in (0, 4, 8, 12)]))
-        self.save("animate", _stack(rows))
+        self.save("animate", stack_rows(rows, gap=4))
 
     def stylize(self) -> None:
         from neuraltex.edit.stylize import stylize
@@ -169,14 +171,6 @@ class Gallery:
             x, enc.textons, enc.masks[0], scale=2))]))
 
 
-def _stack(rows: list[Image.Image]) -> Image.Image:
-    out = Image.new("RGB", (max(r.width for r in rows), sum(r.height + 4 for r in rows)),
-                    "white")
-    y = 0
-    for r in rows:
-        out.paste(r, (0, y))
-        y += r.height + 4
-    return out
 
 
 OPS = ("transfer", "reshuffle", "interpolate", "vary", "edit", "propagate", "animate",
