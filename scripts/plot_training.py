@@ -19,7 +19,7 @@ from PIL import Image, ImageDraw
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from neuraltex.errors import InputError, cli_entry  # noqa: E402
-from neuraltex.fileio import atomic_path  # noqa: E402
+from neuraltex.imageio import save_pil  # noqa: E402
 
 TAGS = ("loss/mask", "loss/recon", "diag/effective", "diag/queries_used", "diag/mask_diversity",
         "diag/l1")
@@ -107,8 +107,7 @@ def main(argv: list[str] | None = None) -> int:
                       for i, (_, d) in enumerate(data)]
             panel(draw, (c * w + 4, 24 + r * h + 4, (c + 1) * w - 4, 24 + (r + 1) * h - 4),
                   tag, series)
-        with atomic_path(args.output) as tmp:
-            pic.save(tmp, format="PNG")
+        save_pil(pic, args.output)
         print(f"wrote {args.output}")
     return 0
 
