@@ -147,8 +147,10 @@ def summary(config: dict, info: dict) -> str:
     while cur:
         sup = cur.get("mask_supervision", "?")
         frozen = f", {'+'.join(cur['freeze'])} frozen" if cur.get("freeze") else ""
+        parts = "".join(f", {part} taken from a {(src.get('info') or {}).get('steps', '?')}-step "
+                        "model" for part, src in (cur.get("init_parts") or {}).items())
         stages.insert(0, f"{cur.get('steps', '?')} steps / {cur.get('wall_s', 0) / 60:.0f} min "
-                         f"on {cur.get('device', '?')} (mask supervision {sup}{frozen})")
+                         f"on {cur.get('device', '?')} (mask supervision {sup}{frozen}{parts})")
         cur = (cur.get("init_from") or {}).get("info")
     return (f"preset {config.get('preset')}, {queries} queries, trained at "
             f"{config.get('image_size')} px: " + " then ".join(stages)

@@ -79,10 +79,19 @@ def estimate_textons(
     p = (S * S).sum(dim=-1) / mass  # eq. 4.5: mask average weighted by itself
     delta = _existence(p, existence, temperature, generator)
 
-    order = torch.arange(n, device=masks.device).expand(B, n)
+    order = painter_order(cov)
     canvas = (window[2] - window[0], window[3] - window[1])
     return Textons(mu=mean + centre, cov=cov, v=v, f=f, p=p, delta=delta, order=order,
                    canvas=canvas)
+
+
+def painter_order(cov: torch.Tensor) -> torch.Tensor:
+    """Draw order (eq. 4.13) from sizes: larger Gaussians behind smaller ones, (B, n, 2, 2) ->
+    (B, n) int64 ranks (0 = back). The paper notes order is irrelevant without overlap; a
+    background texton overlaps everything, and drawn in front it would hide the elements."""
+    with torch.no_grad():
+        area = torch.linalg.det(cov)  # (B, n)
+        return torch.argsort(torch.argsort(area, dim=1, descending=True, stable=True), dim=1)
 
 
 class _MaskPool(torch.autograd.Function):

@@ -125,3 +125,20 @@ def test_empty_masks_still_get_unit_directions():
     direction = torch.nn.functional.normalize(torch.randn(1, 2, 8, 8), dim=1)
     t = estimate_textons(masks, torch.randn(1, 4, 8, 8), direction)
     assert torch.allclose(t.v.norm(dim=-1), torch.ones(1, 3))
+
+
+def test_background_is_drawn_behind_the_element_it_surrounds():
+    from neuraltex.splatting import splat
+
+    size = 32
+    inside = torch.zeros(size, size, dtype=torch.bool)
+    inside[12:20, 12:20] = True
+    masks = _two_region_masks(inside).flip(1)  # query 0 = background, query 1 = the square
+    t = estimate_textons(masks, *_maps(masks), existence="all")
+    assert t.order[0].tolist() == [0, 1]  # the larger Gaussian gets the lower rank (behind)
+    t = estimate_textons(masks.flip(1), *_maps(masks.flip(1)), existence="all")
+    assert t.order[0].tolist() == [1, 0]  # whatever the query order
+    # The element's own features win at its centre; in query order the background hid them.
+    f = splat(t, (size, size)).features[0, :-2, 16, 16]
+    to_square, to_background = (f - t.f[0, 0]).norm(), (f - t.f[0, 1]).norm()
+    assert to_square < 0.2 * to_background

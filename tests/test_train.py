@@ -147,3 +147,41 @@ def test_crops_keep_labels_aligned_and_freeze_keeps_the_segmenter(tmp_path):
         if name.startswith("segmenter."):
             assert torch.equal(value, after[name]), name
     assert not torch.equal(before["generator.fc.weight"], after["generator.fc.weight"])
+
+
+def test_lr_factor_milestones_scale_both_optimizers(tmp_path):
+    from neuraltex.model import build_model
+    from train.loop import model_config
+
+    cfg = _cfg(tmp_path / "a", "trainer.max_steps=1", "trainer.lr_factor=[[0,0.0],[5,1.0]]")
+    torch.manual_seed(cfg.seed)
+    before = dict(build_model(model_config(cfg), with_critics=True)[0].named_parameters())
+    run(cfg)
+    after = load_training_checkpoint(tmp_path / "a" / "last.pt")
+    assert all(torch.equal(before[k], after["modules"]["model"][k]) for k in before)  # lr 0
+    assert all(g["lr"] == 0 for o in after["optimizers"].values() for g in o["param_groups"])
+    run(_cfg(tmp_path / "b", "trainer.max_steps=1", "trainer.lr_factor=0.5", "trainer.lr=1e-3"))
+    groups = load_training_checkpoint(tmp_path / "b" / "last.pt")["optimizers"]["g"]
+    assert groups["param_groups"][0]["lr"] == pytest.approx(5e-4)
+
+
+def test_init_parts_take_one_part_from_another_model(tmp_path):
+    from neuraltex.checkpoint import summary
+
+    run(_cfg(tmp_path / "a", "trainer.max_steps=1", "model.num_queries=5", "seed=1"))
+    run(_cfg(tmp_path / "s", "trainer.max_steps=2", "model.num_queries=5", "seed=2"))
+    a, s = (load_model(tmp_path / n / "model.safetensors") for n in "as")
+    run(_cfg(tmp_path / "b", "trainer.max_steps=1", "model.num_queries=5", "trainer.lr=0",
+             "loss.gan=false", f"trainer.init_from={tmp_path / 'a' / 'last.pt'}",
+             f"+trainer.init_parts.segmenter={tmp_path / 's' / 'model.safetensors'}"))
+    b = load_model(tmp_path / "b" / "model.safetensors")
+    src = dict(a.named_parameters()) | {f"segmenter.{k}": v
+                                        for k, v in s.segmenter.named_parameters()}
+    for name, value in b.named_parameters():
+        assert torch.equal(value, src[name]), name
+    assert b.info["init_from"]["path"].endswith("last.pt")
+    assert b.info["init_parts"]["segmenter"]["info"]["steps"] == 2
+    assert "segmenter taken from a 2-step model" in summary(b.config, b.info)
+    with pytest.raises(ValueError, match="no model part"):
+        run(_cfg(tmp_path / "c", "trainer.max_steps=1", "model.num_queries=5",
+                 f"+trainer.init_parts.nosuchpart={tmp_path / 's' / 'model.safetensors'}"))

@@ -87,7 +87,7 @@ def run(cfg: DictConfig) -> dict[str, float]:
     opt_g = torch.optim.Adam(trainable, lr=T.lr, betas=tuple(T.betas))
     opt_d = torch.optim.Adam(critics.parameters(), lr=T.d_lr, betas=tuple(T.betas))
 
-    start, wall_before = 0, 0.0
+    start, wall_before, init = 0, 0.0, {}
     resume = run_dir / "last.pt" if T.resume == "auto" else T.resume
     if resume and Path(resume).exists():
         ck = load_training_checkpoint(resume)
@@ -98,8 +98,9 @@ def run(cfg: DictConfig) -> dict[str, float]:
         set_rng_state(ck["rng"])
         start = ck["step"]
         wall_before = float(ck.get("extra", {}).get("wall_s", 0.0))
-    elif T.init_from:
-        model.load_state_dict(_init_weights(T.init_from))
+        init = ck.get("extra", {}).get("init", {})
+    elif T.init_from or T.get("init_parts"):
+        init = _init_from(model, T.init_from, T.get("init_parts"))
 
     gen_step = DDP(gen, find_unused_parameters=True) if world > 1 else gen
     crit_step = DDP(critics, find_unused_parameters=True) if world > 1 else critics
@@ -123,6 +124,10 @@ def run(cfg: DictConfig) -> dict[str, float]:
         w = {k: scheduled(L[f"w_{k}"] if k != "patch_size" else L.patch_size, step,
                           T.schedule_scale) for k in _WEIGHTS}
         existence = "all" if step < L.existence_warmup * T.schedule_scale else "sample"
+        factor = scheduled(T.lr_factor, step)  # run steps, not scaled paper steps
+        for opt, lr in ((opt_g, T.lr), (opt_d, T.d_lr)):
+            for group in opt.param_groups:
+                group["lr"] = lr * factor
         segmenter_only = step < L.segmenter_warmup * T.schedule_scale
 
         critics.requires_grad_(False)
@@ -146,7 +151,8 @@ def run(cfg: DictConfig) -> dict[str, float]:
         out_of_time = _out_of_time(T.max_minutes, t0, world, device)
         bar.set_postfix(_progress(logs))
         if done % T.log_every == 0 or done == T.max_steps:
-            logger.scalars(done, logs | {f"w/{k}": v for k, v in w.items()})
+            scalars = logs | {f"w/{k}": v for k, v in w.items()} | {"w/lr": T.lr * factor}
+            logger.scalars(done, scalars)
         if done % T.image_every == 0 or done == T.max_steps:
             logger.images(done, images, out)
         if rank == 0 and (done % T.ckpt_every == 0 or done == T.max_steps or out_of_time):
@@ -154,7 +160,7 @@ def run(cfg: DictConfig) -> dict[str, float]:
                 run_dir / "last.pt", step=done, config=OmegaConf.to_container(cfg, resolve=True),
                 modules={"model": model.state_dict(), "critics": critics.state_dict()},
                 optimizers={"g": opt_g.state_dict(), "d": opt_d.state_dict()},
-                extra={"wall_s": wall_before + time.time() - t0})
+                extra={"wall_s": wall_before + time.time() - t0, "init": init})
         if out_of_time:  # every rank measures its own clock; rank 0 decides for all
             break
     if rank == 0 and T.export:
@@ -164,11 +170,7 @@ def run(cfg: DictConfig) -> dict[str, float]:
                 "device": device.type, "loss": OmegaConf.to_container(L, resolve=True),
                 "freeze": list(T.freeze or ()), "batch_size": T.batch_size,
                 "schedule_scale": T.schedule_scale, "threads": torch.get_num_threads()}
-        if T.init_from and str(T.init_from).endswith(".safetensors"):
-            from neuraltex.checkpoint import load_exported_model
-
-            info["init_from"] = {"path": str(T.init_from),
-                                 "info": load_exported_model(T.init_from)[2]}
+        info.update(init)  # the headers of the models it started from, read at the start
         export_model(run_dir / T.export, model.state_dict(), model_config(cfg), info)
     logger.close()
     if world > 1:
@@ -184,13 +186,32 @@ def _progress(logs: dict[str, float]) -> dict[str, str]:
     return out
 
 
-def _init_weights(path) -> dict:
-    """Model weights to start from: a training checkpoint (last.pt) or an inference export."""
-    if str(path).endswith(".safetensors"):
-        from neuraltex.checkpoint import load_exported_model
+def _init_from(model, path, parts) -> dict:
+    """Start a new run from ``trainer.init_from`` (a training checkpoint last.pt or an inference
+    export) and then ``trainer.init_parts`` ({part: path}, e.g. ``{segmenter: runs/default_
+    segmenter/model.safetensors}``: that model part only). Returns the header entries to record:
+    ``init_from`` and ``init_parts`` (path, and the source's own header when it has one)."""
+    from neuraltex.checkpoint import load_exported_model
 
-        return load_exported_model(path)[0]
-    return load_training_checkpoint(path)["modules"]["model"]
+    def load(p) -> tuple[dict, dict]:
+        if str(p).endswith(".safetensors"):
+            weights, _, info = load_exported_model(p)
+            return weights, {"path": str(p), "info": info}
+        return load_training_checkpoint(p)["modules"]["model"], {"path": str(p)}
+
+    record: dict = {}
+    if path:
+        weights, record["init_from"] = load(path)
+        model.load_state_dict(weights)
+    for part, p in (parts or {}).items():
+        weights, source = load(p)
+        prefix = f"{part}."
+        weights = {k[len(prefix):]: v for k, v in weights.items() if k.startswith(prefix)}
+        if not weights or not hasattr(model, part):
+            raise ValueError(f"trainer.init_parts: {p} has no model part {part!r}")
+        getattr(model, part).load_state_dict(weights)
+        record.setdefault("init_parts", {})[part] = source
+    return record
 
 
 def _out_of_time(max_minutes, t0: float, world: int, device) -> bool:
