@@ -4,7 +4,9 @@ benchmark images:
     python scripts/eval_model.py                          # the shipped model
     python scripts/eval_model.py --checkpoint runs/x/model.safetensors --limit 40
 
-- reconstruction PSNR at 128 x 128 (and the PSNR of a constant mean-colour image beside it);
+- reconstruction PSNR at 128 x 128, beside two references: a constant mean-colour image, and
+  the model's own E_s masks painted with their mean input colours (what a flat-colour decoder
+  of the same segmentation reaches: the gap is the decoder's);
 - cycle consistency CC (seed 003, eq. 4.32): L_csis between edited textons g* and the textons
   re-extracted from their decoding E(G(g*)), for no edit (R) and random translate / rotate /
   scale edits. Textons have no segmentation masks after an edit, so the mask term of eq. 4.21
@@ -28,6 +30,7 @@ from pathlib import Path
 
 import numpy as np
 import torch
+import torch.nn.functional as F
 from scipy.optimize import linear_sum_assignment
 from tqdm import tqdm
 
@@ -50,6 +53,15 @@ EDITS = {"R": None, "translate": ("translate", 0.15), "rotate": ("rotate", 30.0)
 def psnr(x: torch.Tensor, y: torch.Tensor) -> float:
     mse = float((x - y).square().mean())
     return 10 * np.log10(1.0 / max(mse, 1e-12))
+
+
+def mask_colours(masks: torch.Tensor, x: torch.Tensor) -> torch.Tensor:
+    """Each E_s mask painted with the mean input colour under it: masks (B, n, h, w), x (B, 3,
+    H, W) -> (B, 3, H, W). The reference for G: what a flat-colour decoder of the same
+    segmentation reaches."""
+    S = F.interpolate(masks, size=tuple(x.shape[-2:]), mode="bilinear", align_corners=False)
+    colour = torch.einsum("bnhw,bchw->bnc", S, x) / S.sum(dim=(2, 3)).clamp_min(1e-6)[..., None]
+    return torch.einsum("bnhw,bnc->bchw", S, colour)
 
 
 def _edit(z, edit, rng: np.random.Generator):
@@ -115,6 +127,7 @@ def evaluate(model, limit: int | None, progress: bool = True) -> dict:
         recon = model.decode(enc.textons, (SIZE, SIZE))
         row["psnr"] = psnr(recon, x)
         row["psnr_constant"] = psnr(x.mean(dim=(2, 3), keepdim=True).expand_as(x), x)
+        row["psnr_mask_colours"] = psnr(mask_colours(enc.masks, x), x)
         for name, edit in EDITS.items():
             row[f"cc_{name}"] = cycle_consistency(model, _edit(enc.textons, edit, rng),
                                                   (SIZE, SIZE))
@@ -156,7 +169,8 @@ def main(argv: list[str] | None = None) -> int:
     m = res["mean"]
     print(f"{res['images']} held-out benchmark images at {SIZE} px")
     print(f"reconstruction PSNR {m['psnr']:.2f} dB (constant mean colour: "
-          f"{m['psnr_constant']:.2f} dB)")
+          f"{m['psnr_constant']:.2f} dB; the E_s masks painted with their mean colours: "
+          f"{m['psnr_mask_colours']:.2f} dB)")
     print("cycle consistency CC: " + ", ".join(f"{k} {m[f'cc_{k}']:.3f}" for k in EDITS))
     print(f"shift (8, 5) px: mean centre error {m['shift_err_px']:.2f} px, "
           f"{100 * m['shift_matched']:.0f}% of textons matched within 8 px")

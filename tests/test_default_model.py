@@ -59,3 +59,23 @@ def test_tampered_weights_are_rejected(tmp_path, capsys):
     assert main(["model-info", "--checkpoint", str(bad)]) == 2
     err = capsys.readouterr().err.strip()
     assert err.count("\n") == 0 and "checksum" in err
+
+
+def test_eval_model_script_and_its_mask_colour_reference(tmp_path):
+    import json
+
+    sys.path.insert(0, str(ROOT / "scripts"))
+    try:
+        import eval_model
+    finally:
+        sys.path.pop(0)
+    # Hard masks over flat regions: the mask-colour image is the input itself.
+    x = torch.zeros(1, 3, 8, 8)
+    x[..., :, 4:] = torch.tensor([0.2, 0.5, 0.9])[:, None, None]
+    masks = torch.stack([(x[0, 0] == 0).float(), (x[0, 0] > 0).float()])[None]
+    assert torch.allclose(eval_model.mask_colours(masks, x), x, atol=1e-6)
+    out = tmp_path / "e.json"
+    assert eval_model.main(["--limit", "2", "--quiet", "--threads", "1", "--json", str(out)]) == 0
+    mean = json.loads(out.read_text())["mean"]
+    assert mean["psnr_mask_colours"] > mean["psnr_constant"]  # the masks carry the layout
+    assert all(np.isfinite(mean[k]) for k in ("psnr", "cc_R", "swd_recon", "swd_reshuffled"))

@@ -185,3 +185,22 @@ def test_init_parts_take_one_part_from_another_model(tmp_path):
     with pytest.raises(ValueError, match="no model part"):
         run(_cfg(tmp_path / "c", "trainer.max_steps=1", "model.num_queries=5",
                  f"+trainer.init_parts.nosuchpart={tmp_path / 's' / 'model.safetensors'}"))
+
+
+def test_batchnorm_recalibration_changes_only_the_export(tmp_path):
+    from safetensors.torch import load_file
+
+    cfg = _cfg(tmp_path, "trainer.max_steps=1", "model.image_size=48", "data.crop=32",
+               "trainer.bn_recalibration=8", "loss.gan=false")
+    run(cfg)
+    trained = load_training_checkpoint(tmp_path / "last.pt")["modules"]["model"]
+    exported = load_file(tmp_path / "model.safetensors")
+    stats = [k for k in trained if k.endswith("running_mean")]
+    assert {k.split(".")[0] for k in stats} == {"encoder", "generator"}  # E_FC and G
+    assert all(not torch.equal(trained[k], exported[k]) for k in stats)
+    # one cumulative pass over 8 images: the counters say so
+    assert all(int(exported[k.replace("running_mean", "num_batches_tracked")])
+               == 8 // cfg.trainer.batch_size for k in stats)
+    others = [k for k in trained if "running_" not in k and "num_batches" not in k]
+    assert all(torch.equal(trained[k], exported[k]) for k in others)
+    assert load_model(tmp_path / "model.safetensors").info["bn_recalibration"] == 8

@@ -105,8 +105,8 @@ def run(cfg: DictConfig) -> dict[str, float]:
     gen_step = DDP(gen, find_unused_parameters=True) if world > 1 else gen
     crit_step = DDP(critics, find_unused_parameters=True) if world > 1 else critics
     total_items = max(T.max_steps, 1) * T.batch_size * world
-    data = batches(build_dataset(cfg.data, total_items), T.batch_size, start, rank, world,
-                   cfg.data.num_workers)
+    dataset = build_dataset(cfg.data, total_items)
+    data = batches(dataset, T.batch_size, start, rank, world, cfg.data.num_workers)
     logger = Logger(run_dir, enabled=rank == 0, backbone=recon.lpips.backbone_used
                     if recon.lpips is not None else "off")
     amp = bool(T.amp) and device.type == "cuda"
@@ -171,7 +171,12 @@ def run(cfg: DictConfig) -> dict[str, float]:
                 "freeze": list(T.freeze or ()), "batch_size": T.batch_size,
                 "schedule_scale": T.schedule_scale, "threads": torch.get_num_threads()}
         info.update(init)  # the headers of the models it started from, read at the start
-        export_model(run_dir / T.export, model.state_dict(), model_config(cfg), info)
+        weights = model.state_dict()
+        if T.get("bn_recalibration"):
+            info["bn_recalibration"] = T.bn_recalibration
+            weights = recalibrated_batchnorm(model, dataset, int(T.bn_recalibration),
+                                             T.batch_size, device)
+        export_model(run_dir / T.export, weights, model_config(cfg), info)
     logger.close()
     if world > 1:
         dist.barrier()
@@ -212,6 +217,32 @@ def _init_from(model, path, parts) -> dict:
         getattr(model, part).load_state_dict(weights)
         record.setdefault("init_parts", {})[part] = source
     return record
+
+
+def recalibrated_batchnorm(model, dataset, n_images: int, batch: int, device) -> dict:
+    """Model weights whose BatchNorm running statistics are re-estimated (cumulative average,
+    no gradient) on ``n_images`` whole training images, encoded and decoded as at inference.
+    Training on crops (``data.crop``) leaves statistics of crop-sized maps, but the model is
+    used at the full image size. The training model itself is left untouched."""
+    import copy
+
+    model = copy.deepcopy(model)
+    norms = [m for m in model.modules() if isinstance(m, torch.nn.modules.batchnorm._BatchNorm)]
+    model.eval()  # only the norms measure: spectral-norm vectors and the rest stay as trained
+    for m in norms:
+        m.reset_running_stats()
+        m.momentum = None  # cumulative moving average over the calibration batches
+        m.train()
+    n = len(dataset)
+    with torch.no_grad():
+        for i in range(0, n_images, batch):
+            items = [dataset[(n - 1 - j) % n] for j in range(i, min(i + batch, n_images))]
+            x = torch.stack([torch.as_tensor(it["image"]) for it in items]).to(device)
+            enc = model.encode(x, native=False)
+            model.decode(enc.textons, tuple(x.shape[-2:]))
+    for m in norms:
+        m.momentum = 0.1
+    return model.state_dict()
 
 
 def _out_of_time(max_minutes, t0: float, world: int, device) -> bool:
