@@ -99,8 +99,8 @@ def run(cfg: DictConfig) -> dict[str, float]:
         start = ck["step"]
         wall_before = float(ck.get("extra", {}).get("wall_s", 0.0))
         init = ck.get("extra", {}).get("init", {})
-    elif T.init_from or T.get("init_parts"):
-        init = _init_from(model, T.init_from, T.get("init_parts"))
+    elif T.init_from or T.init_parts:
+        init = _init_from(model, T.init_from, T.init_parts)
 
     gen_step = DDP(gen, find_unused_parameters=True) if world > 1 else gen
     crit_step = DDP(critics, find_unused_parameters=True) if world > 1 else critics
@@ -151,8 +151,8 @@ def run(cfg: DictConfig) -> dict[str, float]:
         out_of_time = _out_of_time(T.max_minutes, t0, world, device)
         bar.set_postfix(_progress(logs))
         if done % T.log_every == 0 or done == T.max_steps:
-            scalars = logs | {f"w/{k}": v for k, v in w.items()} | {"w/lr": T.lr * factor}
-            logger.scalars(done, scalars)
+            logger.scalars(done, logs | {f"w/{k}": v for k, v in w.items()}
+                           | {"w/lr": opt_g.param_groups[0]["lr"]})
         if done % T.image_every == 0 or done == T.max_steps:
             logger.images(done, images, out)
         if rank == 0 and (done % T.ckpt_every == 0 or done == T.max_steps or out_of_time):
@@ -172,7 +172,7 @@ def run(cfg: DictConfig) -> dict[str, float]:
                 "schedule_scale": T.schedule_scale, "threads": torch.get_num_threads()}
         info.update(init)  # the headers of the models it started from, read at the start
         weights = model.state_dict()
-        if T.get("bn_recalibration"):
+        if T.bn_recalibration:
             info["bn_recalibration"] = T.bn_recalibration
             weights = recalibrated_batchnorm(model, dataset, int(T.bn_recalibration),
                                              T.batch_size, device)
@@ -237,11 +237,9 @@ def recalibrated_batchnorm(model, dataset, n_images: int, batch: int, device) ->
     with torch.no_grad():
         for i in range(0, n_images, batch):
             items = [dataset[(n - 1 - j) % n] for j in range(i, min(i + batch, n_images))]
-            x = torch.stack([torch.as_tensor(it["image"]) for it in items]).to(device)
+            x = torch.stack([it["image"] for it in items]).to(device)
             enc = model.encode(x, native=False)
             model.decode(enc.textons, tuple(x.shape[-2:]))
-    for m in norms:
-        m.momentum = 0.1
     return model.state_dict()
 
 
