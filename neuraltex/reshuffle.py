@@ -50,11 +50,15 @@ def soft_reshuffle(textons: Textons, *, gamma: float = 0.5, area: Tensor | None 
     return replace(textons, f=f)
 
 
-def reshuffle(textons: Textons, *, seed: int | None = None, threshold: float = 0.5) -> Textons:
+def reshuffle(textons: Textons, *, seed: int | None = None, threshold: float = 0.5,
+              kinds: Tensor | None = None) -> Textons:
     """Diversify: permute appearance features among effective textons (delta > threshold).
 
     Geometry (mu, U), direction v, existence and draw order stay; only f moves, and only
-    between effective textons of the same set. Deterministic for a given ``seed``.
+    between effective textons of the same set. With ``kinds`` (B, K) int64 (see
+    :func:`neuraltex.texton_kinds.texton_kinds`) f moves only between textons of the same kind,
+    and textons of kind -1 (the background layer) keep theirs. Deterministic for a given
+    ``seed``.
     """
     g = torch.Generator()
     if seed is not None:
@@ -63,8 +67,11 @@ def reshuffle(textons: Textons, *, seed: int | None = None, threshold: float = 0
         g.seed()
     f = textons.f.clone()
     for b in range(textons.batch_size):
-        idx = torch.nonzero(textons.delta[b] > threshold).squeeze(1)
-        perm = idx[torch.randperm(len(idx), generator=g).to(idx.device)]
-        f[b, idx] = textons.f[b, perm]
+        effective = textons.delta[b] > threshold
+        groups = [effective] if kinds is None else [
+            effective & (kinds[b] == k) for k in kinds[b].unique().tolist() if k >= 0]
+        for group in groups:
+            idx = torch.nonzero(group).squeeze(1)
+            perm = idx[torch.randperm(len(idx), generator=g).to(idx.device)]
+            f[b, idx] = textons.f[b, perm]
     return replace(textons, f=f)
-

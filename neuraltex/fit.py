@@ -1,0 +1,248 @@
+"""Tune the decoder to one texture: sharp reconstructions and edits of a real image on a CPU.
+
+A general model trained for a few CPU-hours cannot be sharp on every texture; tuned to one, it
+can (the pivotal-tuning idea of GAN inversion: invert, then tune the generator around the
+inversion). Here:
+
+1. masks S come from a segmenter (:mod:`neuraltex.segmenters`), at full resolution;
+2. E_g (eqs. 4.3-4.7) estimates one Gaussian texton per mask from the frozen E_FC's maps, and
+   the painter's order puts larger Gaussians behind (eq. 4.13);
+3. the textons' appearance features f (unit vectors, eq. 4.6) and the SPADE generator G are
+   optimized together for L1 + L2 reconstruction of random crops of the image, rendered through
+   the splatting h (eqs. 4.11-4.14) in a random dihedral pose (flips, transpose), so G learns to
+   render textons, not one fixed picture.
+
+E_FC and E_s stay frozen, so features of every tuned texture live in the base model's feature
+space (transfer and interpolation between texture files stay meaningful), and a texture is
+stored as its textons plus the change of G (:mod:`neuraltex.texture_file`).
+"""
+
+from __future__ import annotations
+
+import copy
+import math
+import time
+from dataclasses import dataclass, replace
+
+import numpy as np
+import torch
+import torch.nn.functional as F
+from torch import Tensor, nn
+
+from neuraltex.estimation import estimate_textons, painter_order
+from neuraltex.segmenters import MAX_SEGMENTS, segment_labels, soft_masks
+from neuraltex.splatting import splat
+from neuraltex.textons import Textons
+from neuraltex.tuned_decoder import ColourOffsetGenerator
+
+
+@dataclass
+class FitSettings:
+    segmenter: str = "auto"
+    seconds: float | None = 45.0  # wall-time budget of the tuning loop (None: steps only)
+    steps: int | None = None      # step budget (reproducible for a seed); None: seconds only
+    crop: int = 128               # side of the random training crops, pixels
+    lr: float = 2e-3              # G
+    lr_features: float = 2e-2     # f_a
+    lr_offsets: float = 1e-2      # d, the colour offsets (neuraltex.tuned_decoder)
+    max_textons: int = MAX_SEGMENTS
+    dihedral: bool = True         # random flips / transposes of image and textons
+    eval_every: int = 25          # steps between full-image PSNR readings
+    seed: int = 0
+
+
+@dataclass
+class TextureFit:
+    textons: Textons        # (1, K) textons, f = [f_a, d] (neuraltex.tuned_decoder)
+    labels: np.ndarray      # (H, W) int64 segment of each pixel (texton index)
+    generator: dict[str, Tensor]  # tuned parameters of G, by name
+    segmenter: str          # the method used (what ``auto`` picked)
+    steps: int
+    seconds: float
+    psnr: float             # of the final full-size reconstruction, dB
+    base_psnr: float        # before tuning (the textons' colours already set), dB
+
+
+def psnr(x: Tensor, y: Tensor) -> float:
+    return 10 * math.log10(1 / max(F.mse_loss(x, y).item(), 1e-12))
+
+
+def initial_textons(model, image: Tensor, labels: np.ndarray) -> tuple[Textons, np.ndarray]:
+    """Textons of an image (3, H, W) from hard segment labels (H, W): eqs. 4.3-4.7 on soft
+    masks at full resolution with the frozen E_FC's maps, every texton existing (delta = 1),
+    larger ones behind. The ground between elements becomes one background layer
+    (:func:`ground_labels`); returns the textons and the labels they were estimated from."""
+    labels, ground = ground_labels(labels, image)
+    t = _estimate(model, image, labels)
+    if ground:
+        t = background_layer(t, 0)
+    return replace(t, order=painter_order(t.cov)), labels
+
+
+def _estimate(model, image: Tensor, labels: np.ndarray) -> Textons:
+    H, W = image.shape[-2:]
+    masks = soft_masks(labels).to(image.device)  # (1, K, H, W)
+    with torch.no_grad():
+        appearance, direction = model.encoder(image[None] * 2 - 1)
+        appearance = F.interpolate(appearance, size=(H, W), mode="bilinear", align_corners=False)
+        direction = F.interpolate(direction, size=(H, W), mode="bilinear", align_corners=False)
+        return estimate_textons(masks, appearance, direction, existence="all", eps=model.eps)
+
+
+def ground_labels(labels: np.ndarray, image: Tensor, share: float = 0.05, fill: float = 0.5,
+                  colour: float = 0.1) -> tuple[np.ndarray, bool]:
+    """Merge the *ground* into label 0: segments whose Gaussian would spread over at least
+    ``share`` of the image while their pixels fill less than ``fill`` of it (grout, the
+    ground between spots: sprawling, not element-shaped) and whose mean colour is within
+    ``colour`` (RGB distance) of the largest such segment's; the other labels follow from 1.
+    Shape (H, W) -> (H, W), and whether there was ground (else the labels are unchanged)."""
+    lab = torch.from_numpy(np.ascontiguousarray(labels)).long()
+    K = int(lab.max()) + 1
+    H, W = image.shape[-2:]
+    ys, xs = torch.meshgrid(torch.arange(H, dtype=torch.float64),
+                            torch.arange(W, dtype=torch.float64), indexing="ij")
+    flat = lab.flatten()
+    n = torch.bincount(flat, minlength=K).double().clamp_min(1)
+
+    def mean(q: Tensor) -> Tensor:
+        return torch.zeros(K, dtype=torch.float64).index_add_(0, flat, q.flatten()) / n
+
+    mx, my = mean(xs), mean(ys)
+    vxx, vyy = mean(xs * xs) - mx ** 2, mean(ys * ys) - my ** 2
+    vxy = mean(xs * ys) - mx * my
+    spread = 4 * math.pi * (vxx * vyy - vxy ** 2).clamp_min(0).sqrt()  # pixels
+    ground = (spread >= share * H * W) & (n < fill * spread)
+    if ground.any():
+        rgb = torch.stack([mean(c.double()) for c in image.cpu()], 1)  # (K, 3)
+        largest = int(torch.where(ground, n, torch.zeros_like(n)).argmax())
+        ground &= (rgb - rgb[largest]).norm(dim=1) < colour
+    if not ground.any():
+        return labels, False
+    new = torch.cumsum(~ground, 0)  # non-ground labels -> 1..K'
+    new[ground] = 0
+    return new[lab].numpy(), True
+
+
+def background_layer(textons: Textons, k: int = 0, cover: float = 10.0) -> Textons:
+    """Texton ``k`` becomes the background layer: a Gaussian ``cover`` times the canvas,
+    centred on it, so it is opaque everywhere behind the elements instead of a blob that
+    fades towards the corners."""
+    w, h = textons.canvas
+    mu, cov = textons.mu.clone(), textons.cov.clone()
+    mu[0, k] = mu.new_tensor([w / 2, h / 2])
+    cov[0, k] = torch.diag(cov.new_tensor([(cover * w) ** 2, (cover * h) ** 2]))
+    return replace(textons, mu=mu, cov=cov)
+
+
+def dihedral(image: Tensor, textons: Textons, code: int) -> tuple[Tensor, Textons]:
+    """One of the 8 flips/transposes (bits: flip x, flip y, transpose) applied to an image
+    (3, H, W) and its textons alike."""
+    w, h = textons.canvas
+    if code & 1:
+        image = image.flip(-1)
+        textons = textons.affine(torch.tensor([[-1.0, 0.0], [0.0, 1.0]]), (w, 0.0))
+    if code & 2:
+        image = image.flip(-2)
+        textons = textons.affine(torch.tensor([[1.0, 0.0], [0.0, -1.0]]), (0.0, h))
+    if code & 4:
+        image = image.transpose(-1, -2)
+        textons = replace(textons.affine(torch.tensor([[0.0, 1.0], [1.0, 0.0]])), canvas=(h, w))
+    return image, textons
+
+
+def decode_with(model, generator: nn.Module, textons: Textons, size: tuple[int, int],
+                window=None) -> Tensor:
+    """h then G: textons -> image (B, 3, H, W) in [0, 1], with a given generator."""
+    s = splat(textons, size, window=window, cutoff=model.cutoff)
+    return (generator(s.features, s.max_opacity) + 1) / 2
+
+
+def fit_texture(model, image: Tensor, settings: FitSettings | None = None,
+                bar: bool | None = None) -> TextureFit:
+    """Tune G and the textons' features to an image (3, H, W) in [0, 1]; returns the fit.
+
+    Stops after ``settings.steps`` steps or ``settings.seconds`` of tuning, whichever comes
+    first. The segmentation and the first estimate are not counted in ``seconds``.
+    """
+    from tqdm import tqdm
+
+    cfg = settings or FitSettings()
+    if cfg.steps is None and cfg.seconds is None:
+        raise ValueError("fit needs a step or a time budget")
+    labels, method = segment_labels(image, cfg.segmenter, model=model,
+                                    max_segments=cfg.max_textons)
+    textons, labels = initial_textons(model, image, labels)
+    H, W = image.shape[-2:]
+    with torch.no_grad():
+        first = decode_with(model, model.generator, textons, (H, W))[0]  # (3, H, W)
+    offsets = segment_means(image - first, labels)  # (1, K, 3): start at the segment colours
+    rng = torch.Generator().manual_seed(cfg.seed)
+    G = ColourOffsetGenerator(copy.deepcopy(model.generator)).eval()  # eval: keep BN stats
+    for p in G.parameters():
+        p.requires_grad_(True)
+    fa = nn.Parameter(textons.f.detach().clone())
+    d = nn.Parameter(offsets)
+    opt = torch.optim.Adam([{"params": list(G.parameters()), "lr": cfg.lr},
+                            {"params": [fa], "lr": cfg.lr_features},
+                            {"params": [d], "lr": cfg.lr_offsets}])
+
+    def current() -> Textons:
+        return replace(textons, f=torch.cat([F.normalize(fa, dim=-1), d], dim=-1))
+
+    progress = tqdm(total=cfg.steps, desc="fit", unit="step", leave=False,
+                    disable=None if bar is None else not bar)
+    start, step = time.perf_counter(), 0
+    base = score = _full_psnr(model, G, image, current())
+    while not _done(cfg, step, time.perf_counter() - start):
+        loss = _crop_loss(model, G, image, current(), cfg, rng)
+        opt.zero_grad(set_to_none=True)
+        loss.backward()
+        opt.step()
+        step += 1
+        if step % cfg.eval_every == 0:
+            score = _full_psnr(model, G, image, current())
+            progress.set_postfix(psnr=f"{score:.2f} dB")
+        progress.update(1)
+    seconds = time.perf_counter() - start
+    progress.close()
+    fitted = current().detach()
+    score = _full_psnr(model, G, image, fitted)
+    tuned = {k: v.detach().clone() for k, v in G.generator.named_parameters()}
+    return TextureFit(fitted, labels, tuned, method, step, seconds, score, base)
+
+
+def _done(cfg: FitSettings, step: int, elapsed: float) -> bool:
+    return ((cfg.steps is not None and step >= cfg.steps)
+            or (cfg.seconds is not None and elapsed >= cfg.seconds))
+
+
+def segment_means(x: Tensor, labels: np.ndarray) -> Tensor:
+    """Mean of a map x (C, H, W) over each segment of ``labels`` (H, W) -> (1, K, C)."""
+    lab = torch.from_numpy(np.ascontiguousarray(labels)).long().flatten().to(x.device)
+    K = int(lab.max()) + 1
+    sums = torch.zeros(K, x.shape[0], dtype=x.dtype, device=x.device)
+    sums.index_add_(0, lab, x.flatten(1).T)
+    count = torch.bincount(lab, minlength=K).clamp_min(1).to(x.dtype)
+    return (sums / count[:, None])[None]
+
+
+def _crop_loss(model, G: nn.Module, image: Tensor, textons: Textons, cfg: FitSettings,
+               rng: torch.Generator) -> Tensor:
+    """L1 + L2 between a random crop of the image and the decode of the same window, both in
+    a random dihedral pose."""
+    code = int(torch.randint(8, (1,), generator=rng)) if cfg.dihedral else 0
+    img, t = dihedral(image, textons, code)
+    H, W = img.shape[-2:]
+    ch, cw = min(cfg.crop, H), min(cfg.crop, W)
+    y0 = int(torch.randint(H - ch + 1, (1,), generator=rng))
+    x0 = int(torch.randint(W - cw + 1, (1,), generator=rng))
+    s = min(H, W)  # coords: short side = 1
+    window = (x0 / s, y0 / s, (x0 + cw) / s, (y0 + ch) / s)
+    out = decode_with(model, G, t, (ch, cw), window=window)[0]  # (3, ch, cw)
+    target = img[:, y0:y0 + ch, x0:x0 + cw]
+    return F.l1_loss(out, target) + F.mse_loss(out, target)
+
+
+def _full_psnr(model, G: nn.Module, image: Tensor, textons: Textons) -> float:
+    with torch.no_grad():
+        return psnr(decode_with(model, G, textons, tuple(image.shape[-2:]))[0], image)

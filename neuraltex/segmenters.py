@@ -1,0 +1,159 @@
+"""Masks S for the textons of one image, from the learned E_s or a classical segmenter.
+
+E_g (eqs. 4.3-4.7) only needs soft masks S (1, K, H, W) that sum to 1 over K; where they come
+from is a choice per image (``neuraltex fit --segmenter``):
+
+- ``model``: the learned E_s, whose stride-4 masks are snapped to the image at full resolution
+  (each fine superpixel takes the E_s label most of its pixels have: image-guided refinement);
+- ``felzenszwalb`` / ``slic`` / ``kmeans``: classical segments at full resolution (k-means
+  colour clusters are split into connected components, so each texton is one region);
+- ``auto``: Felzenszwalb and SLIC at the same segment count; the one whose segments, painted
+  with their mean colours, reconstruct the image better (PSNR) is used, and reported.
+
+The segment count adapts to the image: Felzenszwalb's scale grows until at most
+``max_segments`` remain, so dense textures (gravel) get hundreds of textons, not a fixed 100.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import torch
+import torch.nn.functional as F
+
+METHODS = ("auto", "model", "felzenszwalb", "slic", "kmeans")
+MAX_SEGMENTS = 400  # default cap on textons per image
+_MIN_AREA = 12      # pixels per segment at 256 x 256, scaled with the image area
+
+
+def segment_labels(image: torch.Tensor, method: str = "auto", *, model=None,
+                   max_segments: int = MAX_SEGMENTS) -> tuple[np.ndarray, str]:
+    """Segment labels of an image (3, H, W) in [0, 1] -> ((H, W) int64 in 0..K-1, the method
+    used; for ``auto``, the method it picked)."""
+    if method not in METHODS:
+        raise ValueError(f"segmenter must be one of {METHODS}, got {method!r}")
+    arr = image.permute(1, 2, 0).cpu().numpy().astype(np.float64)  # (H, W, 3)
+    if method == "auto":
+        felz = felzenszwalb_labels(arr, max_segments)
+        slic = slic_labels(arr, int(felz.max()) + 1)
+        scores = {"felzenszwalb": mean_colour_psnr(felz, arr), "slic": mean_colour_psnr(slic, arr)}
+        best = max(scores, key=scores.get)
+        return (felz if best == "felzenszwalb" else slic), best
+    if method == "model":
+        if model is None:
+            raise ValueError("segmenter 'model' needs the model")
+        return model_labels(model, image, max_segments), method
+    if method == "felzenszwalb":
+        return felzenszwalb_labels(arr, max_segments), method
+    if method == "slic":
+        return slic_labels(arr, max_segments // 2), method
+    return kmeans_labels(arr, max_segments), method
+
+
+def felzenszwalb_labels(arr: np.ndarray, max_segments: int) -> np.ndarray:
+    """Felzenszwalb-Huttenlocher segments, the scale raised until <= ``max_segments``."""
+    from skimage.segmentation import felzenszwalb
+
+    area = arr.shape[0] * arr.shape[1] / 65536  # relative to 256 x 256
+    scale, min_size = 100.0 * area, max(4, round(_MIN_AREA * area))
+    for _ in range(12):
+        labels = felzenszwalb(arr, scale=scale, sigma=0.8, min_size=min_size)
+        if labels.max() + 1 <= max_segments:
+            break
+        scale, min_size = scale * 1.6, round(min_size * 1.4)
+    return _dense(labels)
+
+
+def slic_labels(arr: np.ndarray, n: int) -> np.ndarray:
+    from skimage.segmentation import slic
+
+    return _dense(slic(arr, n_segments=max(2, n), compactness=10.0, sigma=0.5, start_label=0,
+                       channel_axis=-1))
+
+
+def kmeans_labels(arr: np.ndarray, max_segments: int, k: int = 8, seed: int = 0) -> np.ndarray:
+    """k-means colour clusters (Lab), split into connected regions; the smallest regions merge
+    into a neighbour until at most ``max_segments`` remain."""
+    from scipy.cluster.vq import kmeans2
+    from skimage.color import rgb2lab
+    from skimage.measure import label
+
+    lab = rgb2lab(arr).reshape(-1, 3)
+    rng = np.random.default_rng(seed)
+    sample = lab[rng.choice(len(lab), min(len(lab), 4096), replace=False)]
+    centres, _ = kmeans2(sample, k, minit="++", seed=seed)
+    colour = ((lab[:, None] - centres[None]) ** 2).sum(-1).argmin(1).reshape(arr.shape[:2])
+    regions = label(colour, background=-1, connectivity=1)
+    return _merge_small(_dense(regions), max_segments)
+
+
+def model_labels(model, image: torch.Tensor, max_segments: int) -> np.ndarray:
+    """E_s's argmax labels, refined to the image's edges at full resolution."""
+    H, W = image.shape[-2:]
+    with torch.no_grad():
+        enc = model.encode(image[None])
+    masks = F.interpolate(enc.masks, size=(H, W), mode="bilinear", align_corners=False)[0]
+    keep = enc.textons.delta[0] > 0.5  # (n,) effective textons only
+    masks = masks * keep[:, None, None] if keep.any() else masks
+    coarse = masks.argmax(0).cpu().numpy()
+    arr = image.permute(1, 2, 0).cpu().numpy().astype(np.float64)
+    return _dense(refine_to_image(coarse, arr, max(max_segments, 4 * int(coarse.max() + 1))))
+
+
+def refine_to_image(coarse: np.ndarray, arr: np.ndarray, superpixels: int) -> np.ndarray:
+    """Each fine SLIC superpixel of the image takes the coarse label most of its pixels have,
+    so label boundaries follow image edges at full resolution. (H, W) -> (H, W)."""
+    fine = slic_labels(arr, superpixels).ravel()
+    counts = np.zeros((fine.max() + 1, coarse.max() + 1), np.int64)
+    np.add.at(counts, (fine, coarse.ravel()), 1)
+    return counts.argmax(1)[fine].reshape(coarse.shape)
+
+
+def soft_masks(labels: np.ndarray, softness: int = 1) -> torch.Tensor:
+    """Hard labels (H, W) in 0..K-1 -> soft masks S (1, K, H, W) summing to 1 over K, with a
+    ``softness``-pixel box blur across boundaries (E_g's moments need no more)."""
+    lab = torch.from_numpy(np.ascontiguousarray(labels)).long()
+    K = int(lab.max()) + 1
+    m = F.one_hot(lab, K).permute(2, 0, 1).float()[None]  # (1, K, H, W)
+    if softness > 0:
+        m = F.avg_pool2d(m, 2 * softness + 1, stride=1, padding=softness,
+                         count_include_pad=False)
+    return m / m.sum(1, keepdim=True).clamp_min(1e-8)
+
+
+def mean_colour_psnr(labels: np.ndarray, arr: np.ndarray) -> float:
+    """PSNR of the image painted with each segment's mean colour (the masks' upper bound for a
+    flat-colour decoder)."""
+    flat = labels.ravel()
+    K = flat.max() + 1
+    area = np.bincount(flat, minlength=K).clip(1)
+    px = arr.reshape(-1, arr.shape[-1])
+    mean = np.stack([np.bincount(flat, px[:, c], K) for c in range(px.shape[1])], 1) / area[:, None]
+    mse = float(((mean[flat] - px) ** 2).mean())
+    return 10 * math.log10(1 / max(mse, 1e-12))
+
+
+def _dense(labels: np.ndarray) -> np.ndarray:
+    return np.unique(labels, return_inverse=True)[1].reshape(labels.shape).astype(np.int64)
+
+
+def _merge_small(labels: np.ndarray, max_segments: int) -> np.ndarray:
+    """Merge the smallest regions into a larger neighbour until at most ``max_segments``
+    remain."""
+    while labels.max() + 1 > max_segments:
+        K = labels.max() + 1
+        area = np.bincount(labels.ravel(), minlength=K)
+        small = set(np.argsort(area)[:K - max_segments].tolist())
+        pairs = np.concatenate([np.stack([labels[:, :-1].ravel(), labels[:, 1:].ravel()], 1),
+                                np.stack([labels[:-1].ravel(), labels[1:].ravel()], 1)])
+        pairs = pairs[pairs[:, 0] != pairs[:, 1]]
+        pairs = np.concatenate([pairs, pairs[:, ::-1]])
+        target = np.arange(K)
+        for a, b in pairs[np.isin(pairs[:, 0], list(small))]:
+            if target[a] == a and b not in small:
+                target[a] = b
+        if (target == np.arange(K)).all():
+            break
+        labels = _dense(target[labels])
+    return labels

@@ -1,0 +1,57 @@
+"""Kinds of textons, and the background layer, so edits trade appearance only between
+compatible textons.
+
+Reshuffling (seed 003, 4.4.1) permutes appearance features f among textons. Over a whole real
+texture that swaps the feature of the grout, or of a backdrop, with the feature of one small
+element, and the decoder paints a large blob. So textons are grouped first:
+
+- the **background layer**: effective textons whose Gaussian covers at least ``background``
+  of the canvas (area of a uniform region with covariance U: 4 pi sqrt(det U));
+- **kinds**: k-means over (log area, f) of the other effective textons.
+
+A texton of kind -1 never trades its feature.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import torch
+from torch import Tensor
+
+from neuraltex.textons import Textons
+
+BACKGROUND_SHARE = 0.25
+
+
+def texton_area(textons: Textons) -> Tensor:
+    """Area of the region each Gaussian stands for: 4 pi sqrt(det U). (B, K)."""
+    return 4 * math.pi * torch.linalg.det(textons.cov).clamp_min(0).sqrt()
+
+
+def texton_kinds(textons: Textons, *, max_kinds: int = 6, background: float = BACKGROUND_SHARE,
+                 seed: int = 0) -> Tensor:
+    """(B, K) int64: kind >= 0 of each effective texton, -1 for the background layer and for
+    textons that do not exist (delta <= 0.5)."""
+    from scipy.cluster.vq import kmeans2
+
+    kinds = torch.full(textons.p.shape, -1, dtype=torch.int64)
+    area = texton_area(textons).detach().cpu().double()
+    canvas = textons.canvas[0] * textons.canvas[1]
+    for b in range(textons.batch_size):
+        idx = torch.nonzero((textons.delta[b] > 0.5).cpu() & (area[b] < background * canvas))
+        idx = idx.flatten()
+        n = len(idx)
+        if n == 0:
+            continue
+        k = max(1, min(max_kinds, round(math.sqrt(n / 5))))
+        log_area = area[b, idx].clamp_min(1e-12).log().numpy()
+        z = (log_area - log_area.mean()) / (log_area.std() + 1e-6)
+        feats = np.concatenate([z[:, None], textons.f[b, idx].detach().cpu().double().numpy()], 1)
+        if k == 1 or n <= k:
+            labels = np.zeros(n, np.int64)
+        else:
+            _, labels = kmeans2(feats, k, minit="++", seed=seed)
+        kinds[b, idx] = torch.from_numpy(np.asarray(labels, np.int64))
+    return kinds.to(textons.device)

@@ -1,0 +1,59 @@
+"""The decoder of a tuned texture: G plus a splatted colour offset per texton.
+
+A texture tuned by :mod:`neuraltex.fit` gives every texton, beside its appearance feature f
+(C_a channels, unit length, eq. 4.6), a colour offset d (3 channels, RGB in [-1, 1] units).
+Both are appearance: they are splatted together (eqs. 4.11-4.14), move with the texton in
+every edit, and are traded together by reshuffle and transfer. The decoder adds the
+composited offsets to G's output, so a texton's colour is right from the first tuning step
+and G only has to learn the detail; a pixel that no texton covers gets no offset.
+
+Texton layout: f = [f_a (C_a), d (3)]; splatted features F_s = [f_a, d, v] (B, C_a + 5, H, W).
+"""
+
+from __future__ import annotations
+
+import copy
+
+import torch
+from torch import Tensor, nn
+
+from neuraltex.textons import Textons
+
+COLOUR = 3  # channels of the colour offset d
+
+
+class ColourOffsetGenerator(nn.Module):
+    """(F_s (B, C_a + 5, H, W), F_max (B, 1, H, W)) -> image in [-1, 1]: G on [f_a, v] plus
+    twice the composited offsets d (G's range is twice the [0, 1] image range)."""
+
+    def __init__(self, generator: nn.Module) -> None:
+        super().__init__()
+        self.generator = generator
+        self.appearance_channels = generator.feature_channels - 2
+        self.feature_channels = generator.feature_channels + COLOUR
+
+    def forward(self, features: Tensor, max_opacity: Tensor) -> Tensor:
+        c = self.appearance_channels
+        plain = torch.cat([features[:, :c], features[:, c + COLOUR:]], dim=1)  # (B, C_a+2, H, W)
+        offset = features[:, c:c + COLOUR]  # (B, 3, H, W)
+        return (self.generator(plain, max_opacity) + 2 * offset).clamp(-1, 1)
+
+
+def tuned_model(model, generator: dict[str, Tensor]):
+    """A copy of ``model`` whose decoder is the tuned G (parameters by name) plus offsets."""
+    tuned = copy.deepcopy(model)
+    with torch.no_grad():
+        for name, p in tuned.generator.named_parameters():
+            p.copy_(generator[name].to(p))
+    tuned.generator = ColourOffsetGenerator(tuned.generator)
+    return tuned.eval()
+
+
+def with_offsets(textons: Textons, offsets: Tensor | None = None) -> Textons:
+    """Textons of the base model (f: C_a channels) -> the tuned layout [f_a, d]; ``offsets``
+    (B, K, 3) default to 0 (the texton keeps the colour G gives it)."""
+    from dataclasses import replace
+
+    if offsets is None:
+        offsets = textons.f.new_zeros(*textons.f.shape[:2], COLOUR)
+    return replace(textons, f=torch.cat([textons.f, offsets], dim=-1))
