@@ -10,6 +10,7 @@ independent, so ``decode`` renders any size.
 
 from __future__ import annotations
 
+from pathlib import Path
 from typing import NamedTuple
 
 import torch
@@ -132,6 +133,9 @@ def build_model(config: dict, with_critics: bool = False):
     nets.patch_discriminator.crop_size = pcfg.crop_size
     nets.patch_discriminator.num_crops = pcfg.num_crops
     return model, nets.discriminator, nets.patch_discriminator
+
+
+DEFAULT_MODEL = Path(__file__).resolve().parent / "weights" / "default.safetensors"
 
 
 def load_model(path, device: str | torch.device = "cpu") -> TextonAutoencoder:

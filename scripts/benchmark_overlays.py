@@ -36,8 +36,7 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--per-family", type=int, default=1, help="images per family")
     p.add_argument("-o", "--output", type=Path, required=True, help="PNG to write")
     args = p.parse_args(argv)
-    from neuraltex.cli import DEFAULT_MODEL
-    from neuraltex.model import load_model, load_segmenter
+    from neuraltex.model import DEFAULT_MODEL, load_model, load_segmenter
 
     families = [f.strip() for f in args.families.split(",") if f.strip()]
     for f in families:

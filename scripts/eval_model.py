@@ -158,8 +158,7 @@ def build_parser() -> argparse.ArgumentParser:
 @cli_entry("eval_model")
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
-    from neuraltex.cli import DEFAULT_MODEL
-    from neuraltex.model import load_model
+    from neuraltex.model import DEFAULT_MODEL, load_model
 
     if args.threads:
         torch.set_num_threads(args.threads)

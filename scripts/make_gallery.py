@@ -18,8 +18,8 @@ import numpy as np
 import torch
 from PIL import Image, ImageDraw
 
-from neuraltex.cli import DEFAULT_MODEL
 from neuraltex.imageio import stack_rows
+from neuraltex.model import DEFAULT_MODEL
 
 SIZE = 128
 LABEL_H = 14

@@ -10,9 +10,9 @@ import pytest
 import torch
 
 from neuraltex.checkpoint import CheckpointError
-from neuraltex.cli import DEFAULT_MODEL, main
+from neuraltex.cli import main
 from neuraltex.data.splits import benchmark_split
-from neuraltex.model import load_model
+from neuraltex.model import DEFAULT_MODEL, load_model
 
 ROOT = Path(__file__).resolve().parents[1]
 
