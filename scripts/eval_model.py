@@ -36,7 +36,6 @@ from tqdm import tqdm
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from neuraltex.consistency import ConsistencyWeights, matching_cost  # noqa: E402
 from neuraltex.data.generator import generate  # noqa: E402
 from neuraltex.data.splits import benchmark_split  # noqa: E402
 from neuraltex.errors import cli_entry  # noqa: E402
@@ -44,6 +43,7 @@ from neuraltex.fileio import write_text_atomic  # noqa: E402
 from neuraltex.losses import sliced_wasserstein_patches  # noqa: E402
 from neuraltex.reshuffle import reshuffle  # noqa: E402
 from neuraltex.splatting import opacity_maps  # noqa: E402
+from train.consistency import ConsistencyWeights, matching_cost  # noqa: E402
 
 SIZE = 128
 EDITS = {"R": None, "translate": ("translate", 0.15), "rotate": ("rotate", 30.0),

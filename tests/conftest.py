@@ -44,9 +44,9 @@ def tiny_checkpoint(tmp_path_factory) -> str:
     is scaled up so the masks are nearly hard and some textons exist (p > 0.5, eq. 4.5)."""
     from neuraltex.checkpoint import export_model
     from neuraltex.model import build_model
+    from neuraltex.model_config import ModelConfig
 
-    config = {"preset": "tiny", "image_size": 32, "estimation_size": None, "eps": 1e-5,
-              "temperature": 1.0, "cutoff": None}
+    config = ModelConfig(preset="tiny", image_size=32)
     torch.manual_seed(0)
     model = build_model(config)
     with torch.no_grad():

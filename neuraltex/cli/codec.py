@@ -109,9 +109,9 @@ def cmd_model_info(args: argparse.Namespace) -> int:
     model = common.load(args.checkpoint, args.device)
     n = sum(p.numel() for p in model.parameters())
     print(f"model: {path}{' (shipped default)' if not args.checkpoint else ''}")
-    print(f"{n / 1e6:.2f} M parameters; {summary(model.config, model.info)}")
+    print(f"{n / 1e6:.2f} M parameters; {summary(model.config.to_dict(), model.info)}")
     if args.json:
-        print(json.dumps({"config": model.config, "info": model.info}, indent=1))
+        print(json.dumps({"config": model.config.to_dict(), "info": model.info}, indent=1))
     return 0
 
 

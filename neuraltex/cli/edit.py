@@ -224,7 +224,7 @@ def cmd_stylize(args: argparse.Namespace) -> int:
     content = load_image(args.image, max_side=args.max_side).to(args.device)
     model = _load(args)
     apps = [_textons(args, model, p)[0] for p in args.texture]
-    patch = args.patch or int(getattr(model, "config", {}).get("image_size") or 128)
+    patch = args.patch or model.config.image_size or 128
     textons = content_textons(model, content, patch, args.scale, args.overlap, args.seed or 0,
                               progress=_progress("patches"))
     out = _with_appearance(textons, apps, regions, args.mode, args.seed or 0)
