@@ -25,7 +25,7 @@ def model():
 
 def test_shipped_weights_are_small_and_describe_their_training(model):
     assert DEFAULT_MODEL.stat().st_size <= 30 * 2**20
-    assert model.info["steps"] > 0 and "init_from" in model.info  # two stages, MODEL.md
+    assert model.info["steps"] > 0 and "init_from" in model.info  # trained in stages, MODEL.md
     assert model.segmenter.num_queries == 100
 
 
