@@ -8,6 +8,9 @@ import torch.nn.functional as F
 
 from neuraltex.textons import Textons
 
+SIZES = [(32, 32), (48, 64)]  # network tests: one square, one non-square input
+BATCHES = [1, 2]
+
 
 def make_textons(B: int = 2, K: int = 5, C: int = 4, *, dtype=torch.float32, seed: int = 0,
                  scale: float = 0.15) -> Textons:
@@ -56,3 +59,27 @@ def tiny_checkpoint(tmp_path_factory) -> str:
     path = tmp_path_factory.mktemp("model") / "tiny.safetensors"
     export_model(path, model.state_dict(), config, {"steps": 0})
     return str(path)
+
+
+@pytest.fixture(scope="module")
+def one_thread():
+    """One torch thread for a module of tiny-network tests: tiny convs gain nothing from two
+    OpenMP threads, and on a shared, loaded 2-core machine thread synchronisation made single
+    tests swing from 0.5 s to 15 s."""
+    before = torch.get_num_threads()
+    torch.set_num_threads(1)
+    yield
+    torch.set_num_threads(before)
+
+
+@pytest.fixture
+def seeded():
+    torch.manual_seed(0)
+
+
+@pytest.fixture(scope="module")
+def tiny():
+    """The tiny preset's network sizes (neuraltex.networks.NetworksConfig)."""
+    from neuraltex.networks import NetworksConfig
+
+    return NetworksConfig.preset("tiny")
