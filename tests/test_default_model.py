@@ -1,7 +1,6 @@
 """The shipped default model: loads offline, encodes plausibly, refuses tampered weights."""
 
 import shutil
-import subprocess
 import sys
 from pathlib import Path
 
@@ -30,8 +29,10 @@ def test_shipped_weights_are_small_and_describe_their_training(model):
 
 
 def test_version_and_model_info_name_the_default_model(capsys):
-    out = subprocess.run([sys.executable, "-m", "neuraltex.cli", "--version"], cwd=ROOT,
-                         capture_output=True, text=True, timeout=120).stdout
+    with pytest.raises(SystemExit) as exit_:
+        main(["--version"])
+    assert exit_.value.code == 0
+    out = capsys.readouterr().out
     assert "neuraltex" in out and "default model: preset tiny, 100 queries" in out
     assert main(["model-info"]) == 0
     assert "(shipped default)" in capsys.readouterr().out
@@ -61,6 +62,7 @@ def test_tampered_weights_are_rejected(tmp_path, capsys):
     assert err.count("\n") == 0 and "checksum" in err
 
 
+@pytest.mark.slow
 def test_eval_model_script_and_its_mask_colour_reference(tmp_path):
     import json
 

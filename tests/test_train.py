@@ -33,6 +33,7 @@ def test_run_writes_checkpoint_export_and_pictures(tmp_path):
     assert list((tmp_path / "tb").glob("events.*"))
 
 
+@pytest.mark.slow
 def test_resume_continues_exactly(tmp_path):
     full = run(_cfg(tmp_path / "a", "trainer.max_steps=3", "trainer.ckpt_every=2",
                     "trainer.export=null"))
@@ -50,6 +51,7 @@ def test_gt_mask_supervision_path(tmp_path):
     assert "mask" in logs and logs["mask"] > 0
 
 
+@pytest.mark.slow
 def test_ddp_two_processes_on_cpu(tmp_path):
     env = {**os.environ, "OMP_NUM_THREADS": "1", "PYTHONPATH": str(ROOT)}
     cmd = [sys.executable, "-m", "torch.distributed.run", "--nproc_per_node=2",
@@ -60,6 +62,7 @@ def test_ddp_two_processes_on_cpu(tmp_path):
     assert load_training_checkpoint(tmp_path / "last.pt")["step"] == 2
 
 
+@pytest.mark.slow
 def test_overfit_one_batch_lowers_reconstruction_loss():
     from neuraltex.data.generator import generate
     from neuraltex.model import build_model
@@ -166,6 +169,7 @@ def test_lr_factor_milestones_scale_both_optimizers(tmp_path):
     assert groups["param_groups"][0]["lr"] == pytest.approx(5e-4)
 
 
+@pytest.mark.slow
 def test_init_parts_take_one_part_from_another_model(tmp_path):
     from neuraltex.checkpoint import summary
 
