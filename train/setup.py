@@ -24,13 +24,13 @@ class Parts:
     model: TextonAutoencoder
     critics: CriticObjective
     gen: GeneratorObjective
+    gen_step: torch.nn.Module  # gen, or its DDP wrapper
+    crit_step: torch.nn.Module  # critics, or their DDP wrapper
     opt_g: torch.optim.Optimizer
     opt_d: torch.optim.Optimizer
     loss: LossConfig
     device: torch.device
     amp: bool = False  # bfloat16 autocast (CUDA only)
-    gen_step: torch.nn.Module | None = None  # gen, or its DDP wrapper
-    crit_step: torch.nn.Module | None = None  # critics, or their DDP wrapper
 
 
 @dataclass
@@ -63,9 +63,8 @@ def build(cfg: DictConfig, device: torch.device, world: int = 1) -> Parts:
     opt_g = torch.optim.Adam(trainable, lr=T.lr, betas=tuple(T.betas))
     opt_d = torch.optim.Adam(critics.parameters(), lr=T.d_lr, betas=tuple(T.betas))
     wrap = (lambda m: DDP(m, find_unused_parameters=True)) if world > 1 else (lambda m: m)
-    return Parts(model, critics, gen, opt_g, opt_d, loss, device,
-                 amp=bool(T.amp) and device.type == "cuda", gen_step=wrap(gen),
-                 crit_step=wrap(critics))
+    return Parts(model, critics, gen, wrap(gen), wrap(critics), opt_g, opt_d, loss, device,
+                 amp=bool(T.amp) and device.type == "cuda")
 
 
 def restore(parts: Parts, T: DictConfig, run_dir: Path) -> Progress:
