@@ -179,7 +179,7 @@ def cmd_synthesize(args) -> int:
 def _from_image(args):
     """Vectorize --from-image into an exemplar (and write it to --exemplar-out)."""
     from cvt.from_textons import image_exemplar, vectorize_image
-    from neuraltex.cli import DEFAULT_MODEL
+    from neuraltex.model import DEFAULT_MODEL
 
     checkpoint = args.checkpoint
     if args.segmenter == "model" and not checkpoint:

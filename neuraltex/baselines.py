@@ -7,7 +7,7 @@ A *segmenter* maps an image to a label map::
 Every label is one predicted texton/segment (no special background label). Methods
 are built from one main parameter, tuned on the validation split (see
 ``scripts/eval_textons.py --tune``); ``default`` is the value that tuning picked.
-The learned model plugs in through :func:`model_segmenter`.
+The learned model plugs in through :func:`model_segmenter` (``--method model``).
 """
 
 from __future__ import annotations
@@ -109,21 +109,45 @@ def kmeans_segmenter(k: float, fit_pixels: int = 4096) -> Segmenter:
     return segment
 
 
-def model_segmenter(checkpoint: str) -> Segmenter:
+def model_segmenter(checkpoint: str, device: str = "cpu", labels: str = "masks") -> Segmenter:
     """The learned texton model as a segmenter: the one hook the autoencoder plugs into.
 
-    Contract: ``neuraltex.model.load_segmenter(checkpoint) -> Segmenter`` loads the
-    self-describing checkpoint and returns a function giving, per pixel, the index of
-    the texton with the largest mask value (background may be its own label).
+    ``labels="masks"``: each pixel goes to the query whose mask S (E_s) is largest there, i.e.
+    the segment its texton was estimated from (eqs. 4.3-4.7); pixels of queries that are not
+    effective (p <= 0.5) are 0 (background). ``labels="splats"``: the texton with the largest
+    composited splat weight (eq. 4.13), i.e. what the decoder sees; pixels no texton reaches
+    are 0.
     """
+    import torch
+    import torch.nn.functional as F
+
+    from neuraltex.model import load_model
+    from neuraltex.splatting import opacity_maps
+
     if not checkpoint:
         raise InputError("--method model needs --checkpoint PATH")
-    try:
-        from neuraltex.model import load_segmenter
-    except ImportError as exc:
-        raise InputError("--method model needs neuraltex.model.load_segmenter, which this "
-                         "build does not have yet (autoencoder issue)") from exc
-    return load_segmenter(checkpoint)
+    if labels not in ("masks", "splats"):
+        raise ValueError(f"labels must be 'masks' or 'splats', got {labels!r}")
+    model = load_model(checkpoint, device)
+
+    @torch.no_grad()
+    def segment(image: np.ndarray) -> np.ndarray:
+        _check_image(image)
+        x = torch.from_numpy(np.ascontiguousarray(image, dtype=np.float32)).permute(2, 0, 1)
+        H, W = x.shape[-2:]
+        enc = model.encode(x[None].to(device))
+        if labels == "masks":
+            masks = F.interpolate(enc.masks, size=(H, W), mode="bilinear", align_corners=False)
+            best = masks[0].argmax(0)  # (H, W)
+            effective = enc.textons.p[0] > 0.5  # (n,)
+            label = torch.where(effective[best], best + 1, torch.zeros_like(best))
+        else:
+            weights = opacity_maps(enc.textons, (H, W), cutoff=model.cutoff)[0]  # (K, H, W)
+            label = weights.argmax(0) + 1
+            label[weights.amax(0) < 0.05] = 0
+        return label.cpu().numpy().astype(np.int64)
+
+    return segment
 
 
 @dataclass(frozen=True)

@@ -27,6 +27,7 @@ import torch
 
 from neuraltex.errors import InputError
 from neuraltex.fileio import atomic_path, load_weights_only
+from neuraltex.model_config import ModelConfig
 
 TRAIN_FORMAT = "neuraltex.train-checkpoint"
 EXPORT_FORMAT = "neuraltex.model"
@@ -88,13 +89,13 @@ def load_training_checkpoint(path: str | os.PathLike) -> dict:
 
 # ------------------------------------------------------------------- inference exports
 def export_model(path: str | os.PathLike, state_dict: dict[str, torch.Tensor],
-                 model_config: dict, info: dict | None = None) -> None:
+                 model_config: ModelConfig, info: dict | None = None) -> None:
     """Write inference weights as safetensors with a self-describing, hashed header."""
     from safetensors.torch import save_file
 
     tensors = {k: v.detach().cpu().contiguous() for k, v in state_dict.items()}
     meta = {"format": EXPORT_FORMAT, "version": str(VERSION),
-            "model_config": json.dumps(model_config, sort_keys=True),
+            "model_config": json.dumps(model_config.to_dict(), sort_keys=True),
             "info": json.dumps(info or {}, sort_keys=True),
             "sha256": _tensor_digest(tensors)}
     with atomic_path(path) as tmp:

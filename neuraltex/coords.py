@@ -53,9 +53,3 @@ def pixel_grid(height: int, width: int, window: Window | None = None, *,
     xs, ys = pixel_axes(height, width, window, device=device, dtype=dtype)
     gy, gx = torch.meshgrid(ys, xs, indexing="ij")  # (H, W) each
     return torch.stack([gx.reshape(-1), gy.reshape(-1)], dim=-1)
-
-
-def pixel_size(height: int, width: int, window: Window | None = None) -> tuple[float, float]:
-    """Size of one pixel in normalized units, (dx, dy)."""
-    x0, y0, x1, y1 = default_window(height, width) if window is None else window
-    return ((x1 - x0) / width, (y1 - y0) / height)

@@ -158,7 +158,7 @@ class ImageDiscriminator(nn.Module):
 
     @classmethod
     def from_config(cls, cfg: DiscriminatorConfig) -> ImageDiscriminator:
-        return cls(cfg.in_channels, cfg.channels)
+        return cls(**vars(cfg))  # the config's fields are the constructor's arguments
 
     def forward(self, image: torch.Tensor) -> torch.Tensor:
         x = self.blocks(self.from_rgb(image))  # (B, C, h, w), h, w >= 4
@@ -177,8 +177,10 @@ class PatchDiscriminator(nn.Module):
     at least 2**num_layers pixels wide (16 for 4 layers) for a non-empty output.
     """
 
-    def __init__(self, in_channels: int = 3, base_channels: int = 64, num_layers: int = 4) -> None:
+    def __init__(self, in_channels: int = 3, base_channels: int = 64, num_layers: int = 4,
+                 crop_size: int = 32, num_crops: int = 8) -> None:
         super().__init__()
+        self.crop_size, self.num_crops = crop_size, num_crops  # what the trainer feeds it
         layers: list[nn.Module] = []
         cin = 2 * in_channels  # reference and candidate, channel-wise
         for i in range(num_layers):
@@ -191,7 +193,7 @@ class PatchDiscriminator(nn.Module):
 
     @classmethod
     def from_config(cls, cfg: PatchDiscriminatorConfig) -> PatchDiscriminator:
-        return cls(cfg.in_channels, cfg.base_channels, cfg.num_layers)
+        return cls(**vars(cfg))  # the config's fields are the constructor's arguments
 
     def forward(self, reference: torch.Tensor, crop: torch.Tensor) -> torch.Tensor:
         if reference.shape != crop.shape:

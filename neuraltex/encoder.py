@@ -117,8 +117,7 @@ class FCEncoder(nn.Module):
 
     @classmethod
     def from_config(cls, cfg: EncoderConfig) -> FCEncoder:
-        return cls(cfg.in_channels, cfg.down_channels, cfg.up_channels,
-                   cfg.appearance_channels, cfg.upsample_output)
+        return cls(**vars(cfg))  # the config's fields are the constructor's arguments
 
     def forward(self, image: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
         h, w = image.shape[-2:]

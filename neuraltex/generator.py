@@ -148,9 +148,7 @@ class SPADEGenerator(nn.Module):
 
     @classmethod
     def from_config(cls, cfg: GeneratorConfig) -> SPADEGenerator:
-        return cls(cfg.feature_channels, cfg.channels, cfg.out_channels, cfg.spade_hidden,
-                   cfg.spade_kernel, cfg.norm, cfg.use_spectral_norm, cfg.concat_features,
-                   cfg.output_activation)
+        return cls(**vars(cfg))  # the config's fields are the constructor's arguments
 
     def forward(self, features: torch.Tensor, max_opacity: torch.Tensor) -> torch.Tensor:
         fs, fm = tuple(features.shape), tuple(max_opacity.shape)

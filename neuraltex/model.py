@@ -3,13 +3,14 @@
     encode:  E_FC(I) -> F_a, V;  E_s(I) -> S;  E_g(S, F_a, V) -> textons
     decode:  h(textons, size) -> F_s, F_max;  G(F_s, F_max) -> image
 
-The networks are injected (Hydra instantiates them); this module only wires them and owns
-the estimation/splatting settings. Images are (B, 3, H, W) in [0, 1]. Textons are resolution
-independent, so ``decode`` renders any size.
+The networks are injected (:func:`build_model` builds them from a :class:`ModelConfig`); this
+module only wires them, and the config holds the estimation/splatting settings. Images are
+(B, 3, H, W) in [0, 1]. Textons are resolution independent, so ``decode`` renders any size.
 """
 
 from __future__ import annotations
 
+from pathlib import Path
 from typing import NamedTuple
 
 import torch
@@ -18,6 +19,7 @@ from torch import Tensor, nn
 
 from neuraltex.coords import default_window
 from neuraltex.estimation import Existence, estimate_textons
+from neuraltex.model_config import ModelConfig
 from neuraltex.splatting import Splat, splat
 from neuraltex.textons import Textons
 
@@ -33,21 +35,33 @@ class TextonAutoencoder(nn.Module):
     """E = (E_FC, E_s, E_g), h, G wired together.
 
     ``encoder(image) -> (appearance, direction)``, ``segmenter(image) -> mask logits``
-    (B, n, h', w'), ``generator(features, max_opacity) -> image``.
-    ``estimation_size``: resolution at which masks and feature maps meet in E_g (None: the
-    input size); ``cutoff``: Mahalanobis cut-off of the splatting; ``native_size``: the
-    training resolution (short side) that :meth:`encode` downscales larger inputs to.
+    (B, n, h', w'), ``generator(features, max_opacity) -> image``. ``config`` describes the
+    model (and sets estimation and splatting); ``info`` is how it was trained (the export
+    header, empty for a fresh model).
     """
 
-    def __init__(self, encoder: nn.Module, segmenter: nn.Module, generator: nn.Module, *,
-                 estimation_size: int | None = None, eps: float = 1e-5,
-                 temperature: float = 1.0, cutoff: float | None = None,
-                 native_size: int | None = None) -> None:
+    def __init__(self, encoder: nn.Module, segmenter: nn.Module, generator: nn.Module,
+                 config: ModelConfig | None = None, info: dict | None = None) -> None:
         super().__init__()
         self.encoder, self.segmenter, self.generator = encoder, segmenter, generator
-        self.estimation_size = estimation_size
-        self.eps, self.temperature, self.cutoff = eps, temperature, cutoff
-        self.native_size = native_size
+        self.config = config or ModelConfig()
+        self.info = dict(info or {})
+
+    @property
+    def estimation_size(self) -> int | None:
+        """Resolution at which masks and feature maps meet in E_g (None: the input size)."""
+        return self.config.estimation_size
+
+    @property
+    def cutoff(self) -> float | None:
+        """Mahalanobis cut-off of the splatting."""
+        return self.config.cutoff
+
+    @property
+    def native_size(self) -> int | None:
+        """The training resolution (short side) that :meth:`encode` downscales larger inputs
+        to."""
+        return self.config.image_size
 
     def encode(self, image: Tensor, existence: Existence = "round",
                generator: torch.Generator | None = None, native: bool = True) -> Encoded:
@@ -70,7 +84,8 @@ class TextonAutoencoder(nn.Module):
         appearance = _resize(appearance, size)
         direction = _resize(direction, size)
         textons = estimate_textons(masks, appearance, direction, existence=existence,
-                                   temperature=self.temperature, eps=self.eps,
+                                   temperature=self.config.temperature,
+                                   eps=self.config.eps,
                                    window=window, generator=generator)
         return Encoded(textons, masks, appearance, direction)
 
@@ -108,30 +123,19 @@ def _resize(x: Tensor, size: tuple[int, int]) -> Tensor:
     return F.interpolate(x, size=size, mode="bilinear", align_corners=False)
 
 
-def build_model(config: dict, with_critics: bool = False):
-    """The autoencoder described by a model config (the dict stored in checkpoints/exports:
-    preset, num_queries, anchor_prior, estimation_size, eps, temperature, cutoff). With
+def build_model(config: ModelConfig, with_critics: bool = False, info: dict | None = None):
+    """The autoencoder a :class:`ModelConfig` describes (``info``: its training record). With
     ``with_critics`` also returns the image and patch discriminators: (model, D, D_p)."""
-    from neuraltex.networks import NetworksConfig, build_networks
+    from neuraltex.networks import build_networks
 
-    nets_cfg = NetworksConfig.preset(config["preset"])
-    if config.get("num_queries"):  # n = max textons per image; None keeps the preset's
-        nets_cfg.segmentation.num_queries = int(config["num_queries"])
-    if config.get("anchor_prior") is not None:  # None keeps the preset's
-        nets_cfg.segmentation.anchor_prior = bool(config["anchor_prior"])
-    nets = build_networks(nets_cfg)
-    model = TextonAutoencoder(nets.encoder, nets.segmentation, nets.generator,
-                              estimation_size=config.get("estimation_size"),
-                              eps=config.get("eps", 1e-5),
-                              temperature=config.get("temperature", 1.0),
-                              cutoff=config.get("cutoff"),
-                              native_size=config.get("image_size"))
+    nets = build_networks(config.networks())
+    model = TextonAutoencoder(nets.encoder, nets.segmentation, nets.generator, config, info)
     if not with_critics:
         return model
-    pcfg = nets_cfg.patch_discriminator
-    nets.patch_discriminator.crop_size = pcfg.crop_size
-    nets.patch_discriminator.num_crops = pcfg.num_crops
     return model, nets.discriminator, nets.patch_discriminator
+
+
+DEFAULT_MODEL = Path(__file__).resolve().parent / "weights" / "default.safetensors"
 
 
 def load_model(path, device: str | torch.device = "cpu") -> TextonAutoencoder:
@@ -140,48 +144,9 @@ def load_model(path, device: str | torch.device = "cpu") -> TextonAutoencoder:
 
     state, config, info = load_exported_model(path)
     try:
-        model = build_model(config)
+        model = build_model(ModelConfig.from_dict(config), info=info)
         model.load_state_dict(state)
     except (KeyError, ValueError, RuntimeError, TypeError) as exc:
         raise CheckpointError(f"{path}: weights do not fit the model they describe "
                               f"({' '.join(str(exc).split())[:160]})") from None
-    model.info = info
-    model.config = config
     return model.to(device).eval()
-
-
-def load_segmenter(checkpoint, device: str | torch.device = "cpu", labels: str = "masks"):
-    """The model as a texton segmenter for the benchmark (``scripts/eval_textons.py --method
-    model``): image (H, W, 3) float in [0, 1] -> (H, W) int labels, one per texton.
-
-    ``labels="masks"``: each pixel goes to the query whose mask S (E_s) is largest there, i.e.
-    the segment its texton was estimated from (eqs. 4.3-4.7); pixels of queries that are not
-    effective (p <= 0.5) are 0 (background). ``labels="splats"``: the texton with the largest
-    composited splat weight (eq. 4.13), i.e. what the decoder sees; pixels no texton reaches
-    are 0.
-    """
-    import numpy as np
-
-    from neuraltex.splatting import opacity_maps
-
-    if labels not in ("masks", "splats"):
-        raise ValueError(f"labels must be 'masks' or 'splats', got {labels!r}")
-    model = load_model(checkpoint, device)
-
-    @torch.no_grad()
-    def segment(image: np.ndarray) -> np.ndarray:
-        x = torch.from_numpy(np.ascontiguousarray(image, dtype=np.float32)).permute(2, 0, 1)
-        H, W = x.shape[-2:]
-        enc = model.encode(x[None].to(device))
-        if labels == "masks":
-            masks = F.interpolate(enc.masks, size=(H, W), mode="bilinear", align_corners=False)
-            best = masks[0].argmax(0)  # (H, W)
-            effective = enc.textons.p[0] > 0.5  # (n,)
-            label = torch.where(effective[best], best + 1, torch.zeros_like(best))
-        else:
-            weights = opacity_maps(enc.textons, (H, W), cutoff=model.cutoff)[0]  # (K, H, W)
-            label = weights.argmax(0) + 1
-            label[weights.amax(0) < 0.05] = 0
-        return label.cpu().numpy().astype(np.int64)
-
-    return segment

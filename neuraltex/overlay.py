@@ -1,49 +1,32 @@
 """Pictures of textons: segmentation colours + Gaussian ellipses + direction ticks over an image.
 
 Used for training image grids and ``neuraltex overlay``. Ellipses are drawn at the M = 1 level
-set (:func:`ellipse_points`); an SVG variant writes them as ``<ellipse>`` elements.
+set (:func:`neuraltex.textons.ellipse_points`); an SVG variant writes them as ``<ellipse>``
+elements.
 """
 
 from __future__ import annotations
 
-import colorsys
 import math
 
 import numpy as np
 import torch
 from PIL import Image, ImageDraw
+from skimage.color import hsv2rgb
 from torch import Tensor
 
-from neuraltex.textons import Textons
+from neuraltex.svg_text import document
+from neuraltex.textons import Textons, ellipse_axes, ellipse_points
 
 
 def palette(n: int, seed: int = 0) -> np.ndarray:
     """n distinct-ish RGB colours (uint8), golden-ratio hues. Shape: (n, 3)."""
+    if n == 0:
+        return np.zeros((0, 3), np.uint8)
     hues = (np.arange(n) * 0.618033988749895 + seed * 0.1) % 1.0
-    rgb = np.array([colorsys.hsv_to_rgb(h, 0.65, 0.95) for h in hues]).reshape(n, 3)
+    hsv = np.stack([hues, np.full(n, 0.65), np.full(n, 0.95)], -1)  # (n, 3)
+    rgb = hsv2rgb(hsv.reshape(n, 1, 3), channel_axis=-1).reshape(n, 3)
     return (rgb * 255).astype(np.uint8)
-
-
-def ellipse_axes(cov: Tensor, level: float = 1.0) -> tuple[Tensor, Tensor, Tensor]:
-    """Semi-axes (a >= b) and angle (radians, of a, from +x towards +y) of the M = level ellipse.
-
-    With o = exp(-M^2) (eq. 4.12), M^2 = x^T U^-1 x = level^2 has semi-axes level*sqrt(eig).
-    """
-    evals, evecs = torch.linalg.eigh(cov.double())
-    a = level * evals[..., 1].clamp_min(0).sqrt()
-    b = level * evals[..., 0].clamp_min(0).sqrt()
-    angle = torch.atan2(evecs[..., 1, 1], evecs[..., 0, 1])
-    return a.float(), b.float(), angle.float()
-
-
-def ellipse_points(mu: Tensor, cov: Tensor, level: float = 1.0, n: int = 32) -> Tensor:
-    """Polyline of the ellipse, (..., n, 2)."""
-    a, b, ang = ellipse_axes(cov, level)
-    th = torch.linspace(0, 2 * math.pi, n)
-    x = a[..., None] * torch.cos(th)
-    y = b[..., None] * torch.sin(th)
-    c, s = torch.cos(ang)[..., None], torch.sin(ang)[..., None]
-    return torch.stack([mu[..., 0:1] + c * x - s * y, mu[..., 1:2] + s * x + c * y], -1)
 
 
 def draw_overlay(image: Tensor, textons: Textons, masks: Tensor | None = None,
@@ -84,8 +67,7 @@ def ellipses_svg(textons: Textons, width: int, height: int, level: float = 1.0) 
     S = min(width, height)
     colours = palette(textons.num_textons)
     a, b, ang = ellipse_axes(textons.cov[0].cpu(), level)
-    parts = [f'<svg xmlns="http://www.w3.org/2000/svg" width="{width}" height="{height}" '
-             f'viewBox="0 0 {width} {height}">']
+    parts = []
     for k in torch.nonzero(textons.delta[0] > 0.5).flatten().tolist():
         cx, cy = (textons.mu[0, k].cpu() * S).tolist()
         r, g, bl = (int(c) for c in colours[k])
@@ -94,5 +76,4 @@ def ellipses_svg(textons: Textons, width: int, height: int, level: float = 1.0) 
             f'ry="{float(b[k]) * S:.3f}" transform="rotate({math.degrees(float(ang[k])):.3f} '
             f'{cx:.3f} {cy:.3f})" fill="rgb({r},{g},{bl})" fill-opacity="0.35" '
             f'stroke="rgb({r},{g},{bl})"/>')
-    parts.append("</svg>")
-    return "\n".join(parts) + "\n"
+    return document(width, height, parts)

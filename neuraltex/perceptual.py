@@ -9,6 +9,8 @@ load. ``backbone_used`` records which trunk ran, for logs and the model card.
 
 from __future__ import annotations
 
+import copy
+import functools
 import os
 import warnings
 from typing import Literal
@@ -33,8 +35,6 @@ class LPIPS(nn.Module):
 
     def __init__(self, backbone: Backbone = "auto") -> None:
         super().__init__()
-        import lpips
-
         cached = cached_alexnet_weights()
         if backbone == "pretrained" and cached is None:
             raise FileNotFoundError(
@@ -45,13 +45,7 @@ class LPIPS(nn.Module):
             warnings.warn("LPIPS: no pretrained AlexNet weights in the torch hub cache; using a "
                           "randomly initialized trunk (backbone=random)", stacklevel=2)
         self.backbone_used = "pretrained" if use_pretrained else "random"
-        # A fixed seed makes the random trunk the same network in every run and process.
-        with torch.random.fork_rng(devices=[]), warnings.catch_warnings():
-            torch.manual_seed(0)
-            warnings.filterwarnings("ignore", category=UserWarning, module="torchvision")
-            self.net = lpips.LPIPS(net="alex", pretrained=True, pnet_rand=not use_pretrained,
-                                   verbose=False)
-        self.net.eval().requires_grad_(False)
+        self.net = copy.deepcopy(_lpips_network(use_pretrained))
 
     def train(self, mode: bool = True) -> LPIPS:  # the metric network never trains
         super().train(False)
@@ -59,3 +53,18 @@ class LPIPS(nn.Module):
 
     def forward(self, x: torch.Tensor, y: torch.Tensor) -> torch.Tensor:
         return self.net(x * 2 - 1, y * 2 - 1).flatten()  # lpips expects [-1, 1]
+
+
+@functools.lru_cache(maxsize=2)
+def _lpips_network(pretrained_trunk: bool) -> nn.Module:
+    """The lpips network, built once per process (building AlexNet initializes its 58 M unused
+    classifier weights: a second a time); :class:`LPIPS` takes copies."""
+    import lpips
+
+    # A fixed seed makes the random trunk the same network in every run and process.
+    with torch.random.fork_rng(devices=[]), warnings.catch_warnings():
+        torch.manual_seed(0)
+        warnings.filterwarnings("ignore", category=UserWarning, module="torchvision")
+        net = lpips.LPIPS(net="alex", pretrained=True, pnet_rand=not pretrained_trunk,
+                          verbose=False)
+    return net.eval().requires_grad_(False)

@@ -286,10 +286,7 @@ class SegmentationNet(nn.Module):
 
     @classmethod
     def from_config(cls, cfg: SegmentationConfig) -> SegmentationNet:
-        return cls(cfg.in_channels, cfg.num_queries, cfg.backbone, cfg.backbone_channels,
-                   cfg.backbone_weights, cfg.conv_dim, cfg.mask_dim, cfg.hidden_dim,
-                   cfg.num_heads, cfg.ffn_dim, cfg.num_layers, cfg.attn_mask_mode,
-                   cfg.mask_pos_scale, cfg.anchor_prior)
+        return cls(**vars(cfg))  # the config's fields are the constructor's arguments
 
     def blocked_from_logits(self, logits: torch.Tensor, size: tuple[int, int]) -> torch.Tensor:
         """Attention mask for the next layer from mask logits (B, n, h, w) -> (B, n, L) bool."""

@@ -262,3 +262,26 @@ class Textons:
 
 
 _TENSOR_FIELDS = ("mu", "cov", "v", "f", "p", "delta", "order")
+
+
+# --------------------------------------------------------------------- ellipse geometry
+def ellipse_axes(cov: Tensor, level: float = 1.0) -> tuple[Tensor, Tensor, Tensor]:
+    """Semi-axes (a >= b) and angle (radians, of a, from +x towards +y) of the M = level ellipse.
+
+    With o = exp(-M^2) (eq. 4.12), M^2 = x^T U^-1 x = level^2 has semi-axes level*sqrt(eig).
+    """
+    evals, evecs = torch.linalg.eigh(cov.double())
+    a = level * evals[..., 1].clamp_min(0).sqrt()
+    b = level * evals[..., 0].clamp_min(0).sqrt()
+    angle = torch.atan2(evecs[..., 1, 1], evecs[..., 0, 1])
+    return a.float(), b.float(), angle.float()
+
+
+def ellipse_points(mu: Tensor, cov: Tensor, level: float = 1.0, n: int = 32) -> Tensor:
+    """Polyline of the ellipse, (..., n, 2)."""
+    a, b, ang = ellipse_axes(cov, level)
+    th = torch.linspace(0, 2 * math.pi, n)
+    x = a[..., None] * torch.cos(th)
+    y = b[..., None] * torch.sin(th)
+    c, s = torch.cos(ang)[..., None], torch.sin(ang)[..., None]
+    return torch.stack([mu[..., 0:1] + c * x - s * y, mu[..., 1:2] + s * x + c * y], -1)

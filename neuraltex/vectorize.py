@@ -19,6 +19,7 @@ from xml.sax.saxutils import quoteattr
 import numpy as np
 
 from neuraltex.segments import Segments
+from neuraltex.svg_text import document, hex_colour, number
 
 BACKGROUNDS = ("flat", "grid")
 
@@ -146,13 +147,15 @@ def fit_fill(pixels: np.ndarray, colours: np.ndarray, params: VectorizeParams) -
 
 def kinds_of(features: np.ndarray, k: int) -> np.ndarray:
     """k-means kinds of segment features (standardized). Shape: (K, D) -> (K,) int."""
-    from neuraltex.baselines import kmeans
+    from scipy.cluster.vq import kmeans2
 
     if len(features) == 0:
         return np.zeros(0, np.int64)
-    x = (features - features.mean(0)) / (features.std(0) + 1e-6)
-    centres = kmeans(x.astype(np.float64), max(1, min(k, len(x))))
-    kinds = ((x[:, None] - centres[None]) ** 2).sum(-1).argmin(1)  # (K,)
+    x = ((features - features.mean(0)) / (features.std(0) + 1e-6)).astype(np.float64)
+    k = min(k, len(np.unique(x, axis=0)))  # k-means++ cannot seed more centres than points
+    if k <= 1:
+        return np.zeros(len(x), np.int64)
+    _, kinds = kmeans2(x, k, minit="++", seed=0)  # (K,)
     # relabel by first appearance so kinds do not depend on k-means' centre order
     _, first = np.unique(kinds, return_index=True)
     rank = np.argsort(np.argsort(first))
@@ -209,15 +212,6 @@ def _background(image: np.ndarray, labels: np.ndarray, p: VectorizeParams):
 
 
 # ------------------------------------------------------------------------------- SVG text
-def _hex(c: np.ndarray) -> str:
-    r, g, b = (int(round(float(v) * 255)) for v in np.clip(c, 0, 1))
-    return f"#{r:02x}{g:02x}{b:02x}"
-
-
-def _f(v: float) -> str:
-    return f"{v:.2f}".rstrip("0").rstrip(".")
-
-
 def path_data(rings: list[np.ndarray]) -> str:
     """Closed Catmull-Rom splines through each ring's points as cubic Bézier path data."""
     parts = []
@@ -225,50 +219,48 @@ def path_data(rings: list[np.ndarray]) -> str:
         prev, nxt, nxt2 = np.roll(r, 1, 0), np.roll(r, -1, 0), np.roll(r, -2, 0)
         c1 = r + (nxt - prev) / 6  # (P, 2) first control point of the segment r[i] -> r[i+1]
         c2 = nxt - (nxt2 - r) / 6
-        d = [f"M{_f(r[0, 0])} {_f(r[0, 1])}"]
+        d = [f"M{number(r[0, 0])} {number(r[0, 1])}"]
         for i in range(len(r)):
-            d.append("C" + " ".join(_f(v) for v in (*c1[i], *c2[i], *nxt[i])))
+            d.append("C" + " ".join(number(v) for v in (*c1[i], *c2[i], *nxt[i])))
         parts.append("".join(d) + "Z")
     return "".join(parts)
 
 
 def _shape(e: VectorElement, paint: str, seam: float) -> str:
     if e.ellipse is not None:  # --mode ellipse: a real <ellipse>, editable as one
-        cx, cy, rx, ry, deg = (_f(v) for v in e.ellipse)
+        cx, cy, rx, ry, deg = (number(v) for v in e.ellipse)
         return (f'<ellipse cx="{cx}" cy="{cy}" rx="{rx}" ry="{ry}" '
                 f'transform="rotate({deg} {cx} {cy})" fill="{paint}"/>')
     return (f'<path d="{path_data(e.rings)}" fill="{paint}" fill-rule="evenodd"'
-            + (f' stroke="{paint}" stroke-width="{_f(seam)}" stroke-linejoin="round"'
+            + (f' stroke="{paint}" stroke-width="{number(seam)}" stroke-linejoin="round"'
                if seam > 0 else "") + "/>")
 
 
 def to_svg(vec: Vectorized, seg: Segments, seam: float = 0.8) -> str:
     """The SVG document: a background group, then one ``<g>`` per element, bottom to top."""
     H, W = vec.size
-    head = (f'<svg xmlns="http://www.w3.org/2000/svg" version="1.1" width="{W}" height="{H}" '
-            f'viewBox="0 0 {W} {H}">')
     defs, body = [], ['<g id="background" data-background="1">']
     for x, y, w, h, c in vec.background:
-        body.append(f'<rect x="{_f(x)}" y="{_f(y)}" width="{_f(w)}" height="{_f(h)}" '
-                    f'fill="{_hex(c)}"/>')
+        body.append(f'<rect x="{number(x)}" y="{number(y)}" width="{number(w)}" '
+                    f'height="{number(h)}" fill="{hex_colour(c)}"/>')
     body.append("</g>")
     for n, e in enumerate(vec.elements):
         k = e.segment
-        paint = _hex(e.fill.colour)
+        paint = hex_colour(e.fill.colour)
         if e.fill.gradient is not None:
             p0, p1, c0, c1 = e.fill.gradient
             defs.append(f'<linearGradient id="fill-{n}" gradientUnits="userSpaceOnUse" '
-                        f'x1="{_f(p0[0])}" y1="{_f(p0[1])}" x2="{_f(p1[0])}" y2="{_f(p1[1])}">'
-                        f'<stop offset="0" stop-color="{_hex(c0)}"/>'
-                        f'<stop offset="1" stop-color="{_hex(c1)}"/></linearGradient>')
+                        f'x1="{number(p0[0])}" y1="{number(p0[1])}" '
+                        f'x2="{number(p1[0])}" y2="{number(p1[1])}">'
+                        f'<stop offset="0" stop-color="{hex_colour(c0)}"/>'
+                        f'<stop offset="1" stop-color="{hex_colour(c1)}"/></linearGradient>')
             paint = f"url(#fill-{n})"
         attrs = {"id": f"texton-{int(seg.index[k])}", "data-texton": str(int(seg.index[k])),
                  "data-existence": f"{float(seg.existence[k]):.3f}",
                  "data-kind": f"k{int(vec.kinds[k])}", "data-order": str(int(seg.order[k]))}
         body.append("<g " + " ".join(f"{a}={quoteattr(v)}" for a, v in attrs.items()) + ">"
                     + _shape(e, paint, seam) + "</g>")
-    defs_text = ["<defs>", *defs, "</defs>"] if defs else []
-    return "\n".join([head, *defs_text, *body, "</svg>"]) + "\n"
+    return document(W, H, body, defs)
 
 
 def ellipses(image: np.ndarray, seg: Segments, mu: np.ndarray, cov: np.ndarray,
@@ -278,7 +270,7 @@ def ellipses(image: np.ndarray, seg: Segments, mu: np.ndarray, cov: np.ndarray,
     textons' normalized units (short side = 1), one row per segment."""
     import torch
 
-    from neuraltex.overlay import ellipse_axes, ellipse_points
+    from neuraltex.textons import ellipse_axes, ellipse_points
 
     p = params or VectorizeParams()
     H, W = seg.labels.shape

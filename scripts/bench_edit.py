@@ -22,13 +22,13 @@ import torch
 
 def tiny_model():
     from neuraltex.model import build_model
+    from neuraltex.model_config import ModelConfig
 
     torch.manual_seed(0)
-    model = build_model({"preset": "tiny", "image_size": 64}).eval()
+    model = build_model(ModelConfig(preset="tiny", image_size=64)).eval()
     with torch.no_grad():
         model.segmenter.mask_head.embed[4].weight.mul_(1e4)  # confident masks -> textons exist
         model.segmenter.mask_head.embed[4].bias.mul_(1e4)
-    model.config = {"preset": "tiny", "image_size": 64}
     return model
 
 
@@ -122,7 +122,7 @@ def stylization(model, style: torch.Tensor) -> None:
     from neuraltex.edit.stylize import stylize
 
     content = texture(7, (768, 1024), "stones")
-    patch = int(model.config.get("image_size") or 128)
+    patch = model.config.image_size or 128
     style_textons = model.encode(style[None]).textons
     for scale in (1.0, 0.5, 2.0):
         wall, cpu = timed(lambda s=scale: stylize(model, content, style_textons, patch, s))

@@ -28,25 +28,26 @@ def _images(n: int, size: int) -> torch.Tensor:
 
 
 def train_speed(preset: str, size: int, batch: int, steps: int) -> tuple[float, float]:
-    from neuraltex.losses import ReconstructionLoss
     from neuraltex.model import build_model
-    from train.objective import CriticObjective, GeneratorObjective, Options
+    from neuraltex.model_config import ModelConfig
+    from train.loss_config import LossConfig, StepSettings
+    from train.objective import CriticObjective, GeneratorObjective
 
     torch.manual_seed(0)
-    model, d, dp = build_model({"preset": preset}, with_critics=True)
-    opts = Options(crop_size=min(dp.crop_size, size), num_crops=dp.num_crops)
-    critics = CriticObjective(d, dp, opts)
-    gen = GeneratorObjective(model, ReconstructionLoss(backbone="random"), critics, opts)
+    model, d, dp = build_model(ModelConfig(preset=preset), with_critics=True)
+    loss = LossConfig(lpips_backbone="random")
+    critics = CriticObjective(d, dp, loss, image_size=size)
+    gen = GeneratorObjective(model, critics, loss)
     opt_g = torch.optim.Adam(model.parameters(), lr=1e-4, betas=(0.5, 0.999))
     opt_d = torch.optim.Adam(critics.parameters(), lr=1e-4, betas=(0.5, 0.999))
     images = _images(batch, size)
-    w = {"entropy": 0.08, "compact": 1.0, "csis": 0.08, "texture": 0.01, "gan": 0.1,
-         "pgan": 0.1, "patch_size": 2}
+    w = StepSettings(entropy=0.08, compact=1.0, csis=0.08, texture=0.01, gan=0.1, pgan=0.1,
+                     mask=1.0, patch_size=2)
 
     def step(i: int) -> None:
         g = torch.Generator().manual_seed(i)
         critics.requires_grad_(False)
-        out = gen(images, None, w, "sample", g)
+        out = gen(images, None, w, g)
         opt_g.zero_grad()
         out.loss.backward()
         opt_g.step()
@@ -67,9 +68,10 @@ def train_speed(preset: str, size: int, batch: int, steps: int) -> tuple[float, 
 
 def latency(preset: str, size: int) -> float:
     from neuraltex.model import build_model
+    from neuraltex.model_config import ModelConfig
 
     torch.manual_seed(0)
-    model = build_model({"preset": preset}).eval()
+    model = build_model(ModelConfig(preset=preset)).eval()
     image = _images(1, size)
     best = float("inf")
     with torch.no_grad():

@@ -36,15 +36,15 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--per-family", type=int, default=1, help="images per family")
     p.add_argument("-o", "--output", type=Path, required=True, help="PNG to write")
     args = p.parse_args(argv)
-    from neuraltex.cli import DEFAULT_MODEL
-    from neuraltex.model import load_model, load_segmenter
+    from neuraltex.baselines import model_segmenter
+    from neuraltex.model import DEFAULT_MODEL, load_model
 
     families = [f.strip() for f in args.families.split(",") if f.strip()]
     for f in families:
         if f not in FAMILY_NAMES:
             raise InputError(f"unknown family {f!r}")
     ckpt = args.checkpoint or DEFAULT_MODEL
-    model, segment = load_model(ckpt), load_segmenter(ckpt)
+    model, segment = load_model(ckpt), model_segmenter(ckpt)
     rows = []
     for fam in families:
         items = [it for it in benchmark_split() if it.family == fam and it.size == 128]

@@ -36,7 +36,6 @@ from tqdm import tqdm
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from neuraltex.consistency import ConsistencyWeights, matching_cost  # noqa: E402
 from neuraltex.data.generator import generate  # noqa: E402
 from neuraltex.data.splits import benchmark_split  # noqa: E402
 from neuraltex.errors import cli_entry  # noqa: E402
@@ -44,6 +43,7 @@ from neuraltex.fileio import write_text_atomic  # noqa: E402
 from neuraltex.losses import sliced_wasserstein_patches  # noqa: E402
 from neuraltex.reshuffle import reshuffle  # noqa: E402
 from neuraltex.splatting import opacity_maps  # noqa: E402
+from train.consistency import ConsistencyWeights, matching_cost  # noqa: E402
 
 SIZE = 128
 EDITS = {"R": None, "translate": ("translate", 0.15), "rotate": ("rotate", 30.0),
@@ -158,8 +158,7 @@ def build_parser() -> argparse.ArgumentParser:
 @cli_entry("eval_model")
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
-    from neuraltex.cli import DEFAULT_MODEL
-    from neuraltex.model import load_model
+    from neuraltex.model import DEFAULT_MODEL, load_model
 
     if args.threads:
         torch.set_num_threads(args.threads)

@@ -18,8 +18,8 @@ import numpy as np
 import torch
 from PIL import Image, ImageDraw
 
-from neuraltex.cli import DEFAULT_MODEL
 from neuraltex.imageio import stack_rows
+from neuraltex.model import DEFAULT_MODEL
 
 SIZE = 128
 LABEL_H = 14
@@ -155,7 +155,7 @@ class Gallery:
 
         content = texture(9, "stones", (2 * SIZE, 3 * SIZE))
         style = texture(10, "scales")
-        patch = int(self.model.config.get("image_size") or SIZE)
+        patch = self.model.config.image_size or SIZE
         tiles = [("content", content), ("texture", style)]
         for scale in (0.5, 1.0, 2.0):
             out = stylize(self.model, content, self.enc(style), patch, scale)

@@ -57,6 +57,7 @@ def test_bad_method_and_model_hook():
         get_segmenter("grid")(np.zeros((8, 8)))
 
 
+@pytest.mark.slow
 def test_eval_script_end_to_end(tmp_path, capsys):
     sys.path.insert(0, str(ROOT / "scripts"))
     try:

@@ -27,6 +27,7 @@ def _discs(path, size: int = 48) -> None:
 FAST = ["--scale", "1.5", "--levels", "1", "--iterations", "2", "--quiet"]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("segmenter", ["felzenszwalb", "model"])
 def test_from_image_end_to_end(tmp_path, tiny_checkpoint, segmenter):
     _discs(tmp_path / "in.png")

@@ -12,6 +12,7 @@ from neuraltex.checkpoint import (
     save_training_checkpoint,
     set_rng_state,
 )
+from neuraltex.model_config import ModelConfig
 
 
 def _draws():
@@ -43,10 +44,10 @@ def test_training_checkpoint_round_trip_restores_rng_and_states(tmp_path):
 def test_export_round_trip_and_tamper_detection(tmp_path):
     state = {"a.weight": torch.randn(4, 3), "a.bias": torch.zeros(4)}
     path = tmp_path / "model.safetensors"
-    export_model(path, state, {"preset": "tiny"}, {"steps": 10})
+    export_model(path, state, ModelConfig(preset="small"), {"steps": 10})
     loaded, cfg, info = load_exported_model(path)
     assert torch.equal(loaded["a.weight"], state["a.weight"])
-    assert cfg == {"preset": "tiny"} and info == {"steps": 10}
+    assert ModelConfig.from_dict(cfg) == ModelConfig(preset="small") and info == {"steps": 10}
     blob = bytearray(path.read_bytes())
     blob[-5] ^= 0xFF  # flip bits inside the last tensor's data
     path.write_bytes(bytes(blob))

@@ -5,9 +5,6 @@ is confident and images get effective textons (an untrained head gives none).
 """
 
 import json
-import os
-import subprocess
-import sys
 
 import numpy as np
 import pytest
@@ -18,9 +15,9 @@ from neuraltex.checkpoint import export_model
 from neuraltex.cli import main
 from neuraltex.data.generator import generate
 from neuraltex.model import build_model
+from neuraltex.model_config import ModelConfig
 
-CONFIG = {"preset": "tiny", "image_size": 32, "estimation_size": None, "eps": 1e-5,
-          "temperature": 1.0, "cutoff": None}
+CONFIG = ModelConfig(preset="tiny", image_size=32)
 
 
 @pytest.fixture(scope="module")
@@ -75,16 +72,14 @@ OUTPUTS = {"reshuffle": ["out_0.png", "out_1.png"], "interpolate": ["out.gif"],
 
 
 @pytest.mark.parametrize("name", COMMANDS)
-def test_every_edit_subcommand_runs_as_a_subprocess(tmp_path, ckpt, images, name):
+def test_every_edit_subcommand_runs(tmp_path, ckpt, images, name, capsys):
     out = tmp_path / ("out.gif" if name in ("interpolate", "animate") else
                       "out_{i}.png" if name == "reshuffle" else "out.png")
     args = [a.format(a=images / "a.png", b=images / "b.png", mask=images / "mask.png",
                      edits=images / "edits.json", edited=images / "edited.png")
             for a in COMMANDS[name]]
-    env = dict(os.environ, OMP_NUM_THREADS="1")
-    run = subprocess.run([sys.executable, "-m", "neuraltex.cli", *args, "-o", str(out),
-                          "--checkpoint", ckpt], capture_output=True, text=True, env=env)
-    assert run.returncode == 0, run.stderr
+    code = main([*args, "-o", str(out), "--checkpoint", ckpt])
+    assert code == 0, capsys.readouterr().err
     for f in OUTPUTS.get(name, ["out.png"]):
         assert Image.open(tmp_path / f).size == (40, 32)
     if name in ("interpolate", "animate"):

@@ -8,10 +8,10 @@ from PIL import Image
 from neuraltex.checkpoint import export_model
 from neuraltex.cli import main
 from neuraltex.model import build_model
+from neuraltex.model_config import ModelConfig
 from neuraltex.textons_file import load_textons
 
-CONFIG = {"preset": "tiny", "image_size": 32, "estimation_size": None, "eps": 1e-5,
-          "temperature": 1.0, "cutoff": None}
+CONFIG = ModelConfig(preset="tiny", image_size=32)
 
 
 @pytest.fixture(scope="module")

@@ -6,7 +6,8 @@ import pytest
 from hydra import compose, initialize_config_dir
 
 from neuraltex.networks import NetworksConfig
-from train.loop import model_config
+from train.loss_config import LossConfig
+from train.setup import loss_config, model_config
 
 CONFIGS = Path(__file__).resolve().parents[1] / "configs"
 
@@ -26,6 +27,14 @@ def test_every_option_composes(group):
         extra = ["data.root=/tmp"] if (group, option) == ("data", "folder") else []
         cfg = _compose(f"{group}={option}", *extra)
         assert cfg.trainer.max_steps > 0 and cfg.model.preset in ("tiny", "small", "paper")
+        assert model_config(cfg).preset == cfg.model.preset  # typed: unknown keys would raise
+        assert loss_config(cfg).mask_supervision == cfg.loss.mask_supervision
+
+
+def test_typed_loss_defaults_are_the_default_yaml():
+    assert loss_config(_compose("loss=default")) == LossConfig()
+    with pytest.raises(ValueError, match="unknown loss settings: w_typo"):
+        loss_config(_compose("loss=default", "+loss.w_typo=1"))
 
 
 def test_overrides_work_as_users_expect():

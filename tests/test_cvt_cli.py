@@ -22,6 +22,7 @@ def _cvt(*args, cwd=ROOT):
                           capture_output=True, text=True, timeout=120)
 
 
+@pytest.mark.slow
 def test_synthesize_and_inspect_end_to_end(tmp_path):
     out, png = tmp_path / "out.svg", tmp_path / "out.png"
     r = _cvt("synthesize", STARS, "-o", out, "--scale", "1.5", "--levels", "2",

@@ -2,6 +2,7 @@
 
 import re
 import xml.etree.ElementTree as ET
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -77,11 +78,17 @@ def test_same_seed_same_output(run):
     assert again == text
 
 
-def test_random_init_also_works():
+def test_random_init_starts_elsewhere_and_still_fills_the_output():
     ex = load_svg(EXEMPLARS / "rings.svg")
     cfg = SynthesisConfig(levels=1, iterations=2, init="random")
     res = synthesize(ex, (220.0, 220.0), cfg)
+    patch = synthesize(ex, (220.0, 220.0), replace(cfg, init="patch"))
+    where = lambda r: {(p.element, round(p.dx), round(p.dy)) for p in r.placements}  # noqa: E731
+    assert where(res) != where(patch)  # the init option is honoured
     assert len(res.placements) > 5
+    xs = [p.dx + (ex.elements[p.element].bbox[0] + ex.elements[p.element].bbox[2]) / 2
+          for p in res.placements]
+    assert min(xs) < 110 < max(xs)  # elements in both halves of the output
 
 
 def test_tiny_exemplar_without_namespace():

@@ -32,10 +32,14 @@ def test_export_cli_bad_input(tmp_path, capsys):
     assert err.count("error:") == 3 and "Traceback" not in err
 
 
-def test_overlay_and_sheet():
+def test_overlay_tints_textons_outlines_them_and_keeps_the_background():
+    image = np.full((12, 12, 3), 0.5, np.float32)
+    mask = np.zeros((12, 12), np.int32)
+    mask[4:9, 4:9] = 1  # one texton, a 5 x 5 square
+    o = overlay(image, mask)
+    assert o.shape == image.shape
+    assert np.array_equal(o[0, 0], image[0, 0]) and np.array_equal(o[11, 11], image[11, 11])
+    assert not np.allclose(o[6, 6], image[6, 6])  # inside the texton: tinted
+    assert np.allclose(o[4, 6], 1.0) and np.allclose(o[6, 4], 1.0)  # its boundary: white
     s = generate(0, 0, 32, family="discs")
-    o = overlay(s.image, s.mask)
-    assert o.shape == s.image.shape
-    assert np.allclose(o[s.mask == 0][~np.isclose(o[s.mask == 0], 1.0).all(1)],
-                       s.image[s.mask == 0][~np.isclose(o[s.mask == 0], 1.0).all(1)])
     assert contact_sheet([s, s, s], columns=2).size[1] > 2 * 32

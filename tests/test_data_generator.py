@@ -8,11 +8,17 @@ from neuraltex.data.noise import value_noise
 from neuraltex.errors import InputError
 
 
-def test_family_table():
-    assert len(FAMILIES) >= 10
-    assert len(HARD) >= 4
-    assert set(EASY) | set(HARD) == set(FAMILY_NAMES)
-    assert all(f.description for f in FAMILIES.values())
+def test_default_stream_draws_every_family_and_says_which():
+    seen: dict[str, bool] = {}  # family -> hard, as the samples report it
+    for i in range(300):
+        s = generate(i, 0, 16)
+        seen[s.family] = s.hard
+        if len(seen) == len(FAMILY_NAMES):
+            break
+    assert set(seen) == set(FAMILY_NAMES)  # uniform over families: every one turns up
+    assert {n for n, hard in seen.items() if hard} == set(HARD) and set(EASY) and set(HARD)
+    forced = generate(0, 0, 16, family=HARD[0])
+    assert forced.family == HARD[0] and forced.hard and FAMILIES[HARD[0]].description
 
 
 @pytest.mark.parametrize("family", FAMILY_NAMES)

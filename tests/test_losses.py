@@ -4,7 +4,6 @@ import pytest
 import torch
 
 from conftest import make_textons
-from neuraltex.consistency import consistency_loss, matching_cost
 from neuraltex.losses import (
     ReconstructionLoss,
     compactness_loss,
@@ -14,6 +13,7 @@ from neuraltex.losses import (
     g_nonsaturating_loss,
     sliced_wasserstein_patches,
 )
+from train.consistency import consistency_loss, matching_cost
 
 
 def test_entropy_zero_for_hard_masks_and_log_n_for_uniform():

@@ -1,6 +1,6 @@
 import torch
 
-from neuraltex.mask_supervision import mask_supervision_loss, pairwise_dice_bce
+from train.mask_supervision import mask_supervision_loss, pairwise_dice_bce
 
 
 def _labels():

@@ -3,9 +3,9 @@ import torch
 
 from neuraltex.checkpoint import CheckpointError, export_model
 from neuraltex.model import build_model, load_model
+from neuraltex.model_config import ModelConfig
 
-CONFIG = {"preset": "tiny", "image_size": 32, "estimation_size": None, "eps": 1e-5,
-          "temperature": 1.0, "cutoff": None}
+CONFIG = ModelConfig(preset="tiny", image_size=32)
 
 
 @pytest.fixture(scope="module")

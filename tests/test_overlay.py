@@ -4,8 +4,9 @@ import numpy as np
 import torch
 
 from conftest import single
-from neuraltex.overlay import draw_overlay, ellipse_axes, ellipse_points, ellipses_svg
+from neuraltex.overlay import draw_overlay, ellipses_svg
 from neuraltex.splatting import splat
+from neuraltex.textons import ellipse_axes, ellipse_points
 
 
 def test_ellipse_points_lie_on_the_m1_level_set():

@@ -11,6 +11,7 @@ from hydra import compose, initialize_config_dir
 
 from neuraltex.checkpoint import load_training_checkpoint
 from neuraltex.model import load_model
+from neuraltex.model_config import ModelConfig
 from train.loop import run
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -32,6 +33,7 @@ def test_run_writes_checkpoint_export_and_pictures(tmp_path):
     assert list((tmp_path / "tb").glob("events.*"))
 
 
+@pytest.mark.slow
 def test_resume_continues_exactly(tmp_path):
     full = run(_cfg(tmp_path / "a", "trainer.max_steps=3", "trainer.ckpt_every=2",
                     "trainer.export=null"))
@@ -49,6 +51,7 @@ def test_gt_mask_supervision_path(tmp_path):
     assert "mask" in logs and logs["mask"] > 0
 
 
+@pytest.mark.slow
 def test_ddp_two_processes_on_cpu(tmp_path):
     env = {**os.environ, "OMP_NUM_THREADS": "1", "PYTHONPATH": str(ROOT)}
     cmd = [sys.executable, "-m", "torch.distributed.run", "--nproc_per_node=2",
@@ -59,25 +62,26 @@ def test_ddp_two_processes_on_cpu(tmp_path):
     assert load_training_checkpoint(tmp_path / "last.pt")["step"] == 2
 
 
+@pytest.mark.slow
 def test_overfit_one_batch_lowers_reconstruction_loss():
     from neuraltex.data.generator import generate
-    from neuraltex.losses import ReconstructionLoss
     from neuraltex.model import build_model
-    from train.objective import CriticObjective, GeneratorObjective, Options
+    from train.loss_config import LossConfig, StepSettings
+    from train.objective import CriticObjective, GeneratorObjective
 
     torch.manual_seed(0)
     torch.set_num_threads(1)
     images = torch.stack([torch.from_numpy(generate(i, 0, 32).image).permute(2, 0, 1)
                           for i in range(4)]).float()
-    model, d, dp = build_model({"preset": "tiny"}, with_critics=True)
-    opts = Options(equivariance=False, reshuffle=False, gan=False)
-    objective = GeneratorObjective(model, ReconstructionLoss(w_lpips=0.0),
-                                   CriticObjective(d, dp, opts), opts)
+    model, d, dp = build_model(ModelConfig(), with_critics=True)
+    loss = LossConfig(equivariance=False, reshuffle=False, gan=False, w_lpips=0.0)
+    objective = GeneratorObjective(model, CriticObjective(d, dp, loss), loss)
     opt = torch.optim.Adam(model.parameters(), lr=2e-3, betas=(0.5, 0.999))
-    w = {"entropy": 0.0, "compact": 0.0}
+    w = StepSettings(entropy=0.0, compact=0.0, csis=0.0, texture=0.0, gan=0.0, pgan=0.0,
+                     mask=0.0, patch_size=2, existence="all")
     losses = []
     for step in range(80):
-        out = objective(images, None, w, "all", torch.Generator().manual_seed(step))
+        out = objective(images, None, w, torch.Generator().manual_seed(step))
         opt.zero_grad()
         out.loss.backward()
         opt.step()
@@ -94,7 +98,7 @@ def test_segmenter_warmup_trains_only_the_segmenter(tmp_path):
     torch.manual_seed(cfg.seed)
     from neuraltex.model import build_model
 
-    before, _, _ = build_model({"preset": "tiny"}, with_critics=True)
+    before, _, _ = build_model(ModelConfig(), with_critics=True)
     logs = run(cfg)
     assert "mask" in logs and "recon" not in logs and "d" not in logs
     after = load_training_checkpoint(tmp_path / "last.pt")["modules"]["model"]
@@ -115,7 +119,7 @@ def test_max_minutes_stops_early_and_exports_the_steps_done(tmp_path):
 def test_init_from_and_num_queries(tmp_path):
     run(_cfg(tmp_path / "a", "trainer.max_steps=1", "model.num_queries=5"))
     src = load_model(tmp_path / "a" / "model.safetensors")
-    assert src.segmenter.num_queries == 5 and src.config["num_queries"] == 5
+    assert src.segmenter.num_queries == 5 and src.config.num_queries == 5
     run(_cfg(tmp_path / "b", "trainer.max_steps=1", "model.num_queries=5", "loss.gan=false",
              "trainer.lr=0", f"trainer.init_from={tmp_path / 'a' / 'model.safetensors'}"))
     dst = load_model(tmp_path / "b" / "model.safetensors")
@@ -140,7 +144,7 @@ def test_crops_keep_labels_aligned_and_freeze_keeps_the_segmenter(tmp_path):
     torch.manual_seed(cfg.seed)
     from neuraltex.model import build_model
 
-    before = build_model({"preset": "tiny"}).state_dict()
+    before = build_model(ModelConfig()).state_dict()
     run(cfg)
     after = load_training_checkpoint(tmp_path / "last.pt")["modules"]["model"]
     for name, value in before.items():
@@ -151,7 +155,7 @@ def test_crops_keep_labels_aligned_and_freeze_keeps_the_segmenter(tmp_path):
 
 def test_lr_factor_milestones_scale_both_optimizers(tmp_path):
     from neuraltex.model import build_model
-    from train.loop import model_config
+    from train.setup import model_config
 
     cfg = _cfg(tmp_path / "a", "trainer.max_steps=1", "trainer.lr_factor=[[0,0.0],[5,1.0]]")
     torch.manual_seed(cfg.seed)
@@ -165,6 +169,7 @@ def test_lr_factor_milestones_scale_both_optimizers(tmp_path):
     assert groups["param_groups"][0]["lr"] == pytest.approx(5e-4)
 
 
+@pytest.mark.slow
 def test_init_parts_take_one_part_from_another_model(tmp_path):
     from neuraltex.checkpoint import summary
 
@@ -181,7 +186,7 @@ def test_init_parts_take_one_part_from_another_model(tmp_path):
         assert torch.equal(value, src[name]), name
     assert b.info["init_from"]["path"].endswith("last.pt")
     assert b.info["init_parts"]["segmenter"]["info"]["steps"] == 2
-    assert "segmenter taken from a 2-step model" in summary(b.config, b.info)
+    assert "segmenter taken from a 2-step model" in summary(b.config.to_dict(), b.info)
     with pytest.raises(ValueError, match="no model part"):
         run(_cfg(tmp_path / "c", "trainer.max_steps=1", "model.num_queries=5",
                  f"+trainer.init_parts.nosuchpart={tmp_path / 's' / 'model.safetensors'}"))

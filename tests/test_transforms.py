@@ -2,7 +2,7 @@ import torch
 
 from conftest import make_textons
 from neuraltex.splatting import splat
-from neuraltex.transforms import Affine, random_affine, warp_images
+from train.transforms import Affine, random_affine, warp_images
 
 
 def test_warping_the_splat_equals_splatting_the_transformed_textons():

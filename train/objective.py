@@ -11,14 +11,12 @@ DDP over the generator objective never touches their parameters.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import NamedTuple
 
 import torch
 from torch import Tensor, nn
 
-from neuraltex.consistency import ConsistencyWeights, consistency_loss
-from neuraltex.discriminators import random_crops
+from neuraltex.discriminators import PatchDiscriminator, random_crops
 from neuraltex.estimation import estimate_textons
 from neuraltex.losses import (
     ReconstructionLoss,
@@ -29,23 +27,12 @@ from neuraltex.losses import (
     g_nonsaturating_loss,
     sliced_wasserstein_patches,
 )
-from neuraltex.mask_supervision import mask_supervision_loss
 from neuraltex.model import Encoded, TextonAutoencoder
 from neuraltex.reshuffle import soft_reshuffle
-from neuraltex.transforms import random_affine, warp_images
-
-
-@dataclass(frozen=True)
-class Options:
-    equivariance: bool = True
-    reshuffle: bool = True
-    gan: bool = True
-    mask_supervision: str = "none"  # none | gt | pseudo
-    reshuffle_gamma: float = 0.5
-    crop_size: int = 16
-    num_crops: int = 8
-    csis_weights: ConsistencyWeights = ConsistencyWeights()
-    csis_reduce: str = "sum"  # sum (eq. 4.22) | mean over matched pairs
+from train.consistency import consistency_loss
+from train.loss_config import LossConfig, StepSettings
+from train.mask_supervision import mask_supervision_loss
+from train.transforms import random_affine, warp_images
 
 
 class Outputs(NamedTuple):
@@ -56,40 +43,37 @@ class Outputs(NamedTuple):
     encoded: object          # neuraltex.model.Encoded
 
 
-def _crops(images: Tensor, size: int, n: int, g: torch.Generator) -> Tensor:
-    return random_crops(images, size, n, generator=g)
-
-
 class GeneratorObjective(nn.Module):
-    def __init__(self, model: TextonAutoencoder, recon: ReconstructionLoss,
-                 critics: CriticObjective, options: Options) -> None:
+    def __init__(self, model: TextonAutoencoder, critics: CriticObjective,
+                 loss: LossConfig) -> None:
         super().__init__()
-        self.model, self.recon, self.options = model, recon, options
+        self.model, self.loss = model, loss
+        self.recon = ReconstructionLoss(loss.w_l1, loss.w_lpips, loss.lpips_backbone)
         self._critics = (critics,)  # not a submodule: DDP over this module skips the critics
 
     @property
     def critics(self) -> CriticObjective:
         return self._critics[0]
 
-    def forward(self, images: Tensor, labels: Tensor | None, w: dict[str, float],
-                existence: str, g: torch.Generator, segmenter_only: bool = False) -> Outputs:
-        """eq. 4.24, or with ``segmenter_only`` the warm-up in which only E_s learns the
+    def forward(self, images: Tensor, labels: Tensor | None, w: StepSettings,
+                g: torch.Generator) -> Outputs:
+        """eq. 4.24, or with ``w.segmenter_only`` the warm-up in which only E_s learns the
         given segments (mask supervision gt or pseudo) and nothing is decoded."""
-        opt, model = self.options, self.model
-        if segmenter_only:
-            return self._segmenter_stage(images, labels, w)
+        opt, model = self.loss, self.model
+        if w.segmenter_only:
+            return self._segmenter_warmup(images, labels, w)
         size = tuple(images.shape[-2:])
-        enc = model.encode(images, existence=existence, generator=g, native=False)
+        enc = model.encode(images, existence=w.existence, generator=g, native=False)
         z = enc.textons
         recon = model.decode(z, size)
         logs: dict[str, Tensor] = {}
         logs["recon"] = self.recon(recon, images)
         logs["entropy"] = entropy_loss(enc.masks)
         logs["compact"] = compactness_loss(enc.masks, z.mu)
-        total = logs["recon"] + w["entropy"] * logs["entropy"] + w["compact"] * logs["compact"]
+        total = logs["recon"] + w.entropy * logs["entropy"] + w.compact * logs["compact"]
         if opt.gan:
             logs["gan"] = g_nonsaturating_loss(self.critics.image(recon))
-            total = total + w["gan"] * logs["gan"]
+            total = total + w.gan * logs["gan"]
         reshuffled = None
         if opt.reshuffle:
             h = max(1, images.shape[0] // 2)  # N/2 reshuffled images (7.7.2)
@@ -97,33 +81,33 @@ class GeneratorObjective(nn.Module):
             zs = soft_reshuffle(z[:h], gamma=opt.reshuffle_gamma, area=area, generator=g)
             reshuffled = model.decode(zs, size)
             logs["texture"] = sliced_wasserstein_patches(reshuffled, images[:h],
-                                                         patch=int(w["patch_size"]), generator=g)
-            total = total + w["texture"] * logs["texture"]
+                                                         patch=w.patch_size, generator=g)
+            total = total + w.texture * logs["texture"]
             if opt.gan:
-                ref = _crops(images[:h], opt.crop_size, opt.num_crops, g)
-                fake = _crops(reshuffled, opt.crop_size, opt.num_crops, g)
+                ref = self.critics.crops(images[:h], g)
+                fake = self.critics.crops(reshuffled, g)
                 logs["pgan"] = g_nonsaturating_loss(self.critics.patch(ref, fake))
-                total = total + w["pgan"] * logs["pgan"]
+                total = total + w.pgan * logs["pgan"]
         if opt.equivariance:
-            csis, recon_t = self._equivariance(images, enc, existence, g)
+            csis, recon_t = self._equivariance(images, enc, w.existence, g)
             logs["csis"], logs["recon_t"] = csis, recon_t
-            total = total + w["csis"] * csis + recon_t
+            total = total + w.csis * csis + recon_t
         if opt.mask_supervision != "none" and labels is not None:
             logs["mask"] = mask_supervision_loss(enc.masks, labels)
-            total = total + w["mask"] * logs["mask"]
+            total = total + w.mask * logs["mask"]
         logs["total"] = total
         out = {k: float(v.detach()) for k, v in logs.items()}
         out.update(_diagnostics(images, recon.detach(), enc))
         return Outputs(total, out, recon, reshuffled, enc)
 
-    def _segmenter_stage(self, images: Tensor, labels: Tensor | None,
-                         w: dict[str, float]) -> Outputs:
+    def _segmenter_warmup(self, images: Tensor, labels: Tensor | None,
+                          w: StepSettings) -> Outputs:
         """Warm-up: E_s learns the given segments; nothing is decoded (recon is blank)."""
         if labels is None:
             raise ValueError("a segmenter warm-up needs loss.mask_supervision=gt or pseudo")
         masks = self.model.segment(images)  # (B, n, h, w)
         mask = mask_supervision_loss(masks, labels)
-        total = w["mask"] * mask
+        total = w.mask * mask
         with torch.no_grad():  # geometry only, for the diagnostics and the overlay pictures
             B, _, h, wd = masks.shape
             blank = masks.new_zeros(B, 1, h, wd)
@@ -144,49 +128,58 @@ class GeneratorObjective(nn.Module):
         masks_t, valid_m = warp_images(enc.masks, T)
         inside = ((z_t.mu >= 0) & (z_t.mu <= torch.tensor(z.canvas).to(z_t.mu))).all(-1)
         csis = consistency_loss(z_t, enc_t.textons, masks_t * valid_m, enc_t.masks * valid_m,
-                                valid=inside, weights=self.options.csis_weights,
-                                reduce=self.options.csis_reduce)
+                                valid=inside, weights=self.loss.csis_lambda,
+                                reduce=self.loss.csis_reduce)
         recon_t = self.recon(model.decode(z_t, tuple(images.shape[-2:])), warped, mask=valid)
         return csis, recon_t
 
 
 class CriticObjective(nn.Module):
-    """D (image) and D_p (patches, conditioned on a real crop) with their losses."""
+    """D (image) and D_p (patches, conditioned on a real crop) with their losses.
 
-    def __init__(self, image: nn.Module, patch: nn.Module, options: Options,
-                 r1_every: int = 16, r1_gamma_d: float = 10.0, r1_gamma_dp: float = 0.1) -> None:
+    D_p judges ``patch.num_crops`` random crops per image of side ``patch.crop_size``, at most
+    ``image_size`` (the training resolution).
+    """
+
+    def __init__(self, image: nn.Module, patch: PatchDiscriminator, loss: LossConfig,
+                 image_size: int | None = None) -> None:
         super().__init__()
-        self.image, self.patch, self.options = image, patch, options
-        self.r1_every, self.r1_gamma_d, self.r1_gamma_dp = r1_every, r1_gamma_d, r1_gamma_dp
+        self.image, self.patch, self.loss = image, patch, loss
+        self.crop_size = min(patch.crop_size, image_size or patch.crop_size)
+
+    def crops(self, images: Tensor, g: torch.Generator) -> Tensor:
+        """(B, 3, H, W) -> (B * num_crops, 3, s, s) random crops for D_p."""
+        return random_crops(images, self.crop_size, self.patch.num_crops, generator=g)
 
     def forward(self, images: Tensor, recon: Tensor, reshuffled: Tensor | None, step: int,
                 g: torch.Generator) -> tuple[Tensor, dict[str, float]]:
-        opt = self.options
+        opt = self.loss
         logs = {"d": d_logistic_loss(self.image(images), self.image(recon.detach()))}
         total = logs["d"]
         real_ref = real = None
         if reshuffled is not None:
             h = reshuffled.shape[0]
-            real_ref = _crops(images[:h], opt.crop_size, opt.num_crops, g)
-            real = _crops(images[:h], opt.crop_size, opt.num_crops, g)
-            fake = _crops(reshuffled.detach(), opt.crop_size, opt.num_crops, g)
+            real_ref = self.crops(images[:h], g)
+            real = self.crops(images[:h], g)
+            fake = self.crops(reshuffled.detach(), g)
             logs["dp"] = d_logistic_loss(self.patch(real_ref, real), self.patch(real_ref, fake))
             total = total + logs["dp"]
-        if self.r1_every and step % self.r1_every == 0:
+        k = opt.r1_every
+        if k and step % k == 0:
             # Lazy R1 (StyleGAN2): every k steps, weighted by gamma / 2 * k.
             x = images.detach().requires_grad_(True)
             logs["r1"] = d_r1_loss(self.image(x), x)
-            total = total + self.r1_gamma_d / 2 * self.r1_every * logs["r1"]
+            total = total + opt.r1_gamma_d / 2 * k * logs["r1"]
             if real is not None:
                 xr = real.detach().requires_grad_(True)
                 logs["r1_p"] = d_r1_loss(self.patch(real_ref, xr), xr)
-                total = total + self.r1_gamma_dp / 2 * self.r1_every * logs["r1_p"]
+                total = total + opt.r1_gamma_dp / 2 * k * logs["r1_p"]
         return total, {k: float(v.detach()) for k, v in logs.items()}
 
 
 @torch.no_grad()
 def _diagnostics(images: Tensor, recon: Tensor | None, enc) -> dict[str, float]:
-    """Numbers that expose the three degenerate phases of CPU training (issue 4): a fixed
+    """Numbers that expose the three degenerate phases of CPU training: a fixed
     partition (masks identical across images), collapse (1-2 queries take all pixels), a dead
     start (no effective textons), and whether the decoder beats a constant image."""
     labels = enc.masks.argmax(1).flatten(1)  # (B, P)

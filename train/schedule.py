@@ -8,8 +8,10 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
+Schedule = float | Sequence[Sequence[float]]  # a number, or [[step, value], ...]
 
-def scheduled(value: float | Sequence[Sequence[float]], step: int, scale: float = 1.0) -> float:
+
+def scheduled(value: Schedule, step: int, scale: float = 1.0) -> float:
     """Value in force at ``step``: the last milestone whose scaled step is <= step."""
     if isinstance(value, (int, float)):
         return float(value)

@@ -3,19 +3,12 @@
 from __future__ import annotations
 
 import numpy as np
+from skimage.color import hsv2rgb
 
 
 def hsv_to_rgb(hsv: np.ndarray) -> np.ndarray:
-    """Vectorized HSV -> RGB. Shape: (..., 3) -> (..., 3), all in [0, 1]."""
-    h, s, v = hsv[..., 0] % 1.0, hsv[..., 1], hsv[..., 2]
-    i = np.floor(h * 6.0).astype(np.int64) % 6
-    f = h * 6.0 - np.floor(h * 6.0)
-    p, q, t = v * (1 - s), v * (1 - s * f), v * (1 - s * (1 - f))
-    table = np.stack([
-        np.stack([v, t, p], -1), np.stack([q, v, p], -1), np.stack([p, v, t], -1),
-        np.stack([p, q, v], -1), np.stack([t, p, v], -1), np.stack([v, p, q], -1),
-    ], 0)  # (6, ..., 3)
-    return np.take_along_axis(table, i[None, ..., None], 0)[0]
+    """HSV -> RGB (skimage). Shape: (..., 3) -> (..., 3), all in [0, 1]."""
+    return hsv2rgb(np.atleast_2d(hsv), channel_axis=-1).reshape(hsv.shape)
 
 
 def palette(rng: np.random.Generator, n: int, value: tuple[float, float] = (0.35, 0.95),

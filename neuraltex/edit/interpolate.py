@@ -46,11 +46,6 @@ def match(a: Textons, b: Textons) -> tuple[Textons, Textons]:
     return _adopt(a, b, pad_a), _adopt(b, a, pad_b)
 
 
-def correspond(a: Textons, b: Textons) -> Textons:
-    """Reorder (and pad) ``b`` so texton i of the result matches texton i of ``a``."""
-    return match(a, b)[1]
-
-
 def _adopt(t: Textons, partner: Textons, where: Tensor) -> Textons:
     """Where ``where`` (B, K): copy mu, cov, v, f of ``partner`` (existence stays)."""
     def pick(x: Tensor, y: Tensor) -> Tensor:

@@ -12,34 +12,27 @@ import argparse
 import math
 from pathlib import Path
 
-from neuraltex import cli as base
+from neuraltex.cli import common
+from neuraltex.cli.common import IMAGE_OUT, TEXTON_FILES
 from neuraltex.errors import InputError
 
-TEXTON_FILES = (".json", ".pt")
 FRAMES_OUT = ".gif, .mp4 or a picture pattern such as out_{i}.png"
 
 
-def _textons(args: argparse.Namespace, model, path: Path):
-    """(textons of one set, default output short side) for an image or a texton file."""
-    if path.suffix.lower() in TEXTON_FILES:
-        from neuraltex.textons_file import load_textons
+def _load(args: argparse.Namespace):
+    return common.load(args.checkpoint, args.device, args.seed)
 
-        t = load_textons(path)
-        base._check_fits(t, model, path)
-        if t.batch_size != 1:
-            raise InputError(f"{path}: holds {t.batch_size} texton sets; editing takes one")
-        return t.to(device=args.device), 256
-    image, enc = base._encode(args, model, path)
-    return enc.textons, min(image.shape[-2:])
+
+def _textons(args: argparse.Namespace, model, path: Path):
+    """(textons of one set, default output short side) of an image or a texton file."""
+    t = common.textons_of(model, path, args.max_side, args.device)
+    return t.textons, t.short
 
 
 def _decode(args: argparse.Namespace, model, textons, default_short: int):
     """One texton set -> image (3, H, W) at --size (default: the source's short side)."""
-    import torch
-
-    size = base._size(args, textons.canvas, default_short)
-    with torch.no_grad():
-        return model.decode(textons.to(device=args.device), size)[0]
+    size = common.output_size(args.size, textons.canvas, default_short)
+    return common.decode(model, textons, size, args.device)[0]
 
 
 def _decode_frames(args: argparse.Namespace, model, frames: list, default_short: int) -> list:
@@ -50,13 +43,6 @@ def _progress(desc: str):
     from tqdm import tqdm
 
     return lambda it: tqdm(it, desc=desc, leave=False, disable=None)  # no bar unless a tty
-
-
-def _save(image, path: Path) -> None:
-    from neuraltex.imageio import save_image
-
-    save_image(image, path)
-    print(f"wrote {path} ({image.shape[-1]}x{image.shape[-2]})")
 
 
 def _save_frames(frames: list, path: Path, fps: float) -> None:
@@ -103,11 +89,11 @@ def cmd_transfer(args: argparse.Namespace) -> int:
 
     check_output_path(args.output)
     regions = _regions(args.regions, len(args.appearance), args.max_side)
-    model = base._model(args)
+    model = _load(args)
     structure, short = _textons(args, model, args.structure)
     apps = [_textons(args, model, p)[0] for p in args.appearance]
     out = _with_appearance(structure, apps, regions, args.mode, args.seed or 0)
-    _save(_decode(args, model, out, short), args.output)
+    common.save(_decode(args, model, out, short), args.output)
     return 0
 
 
@@ -119,11 +105,11 @@ def cmd_reshuffle(args: argparse.Namespace) -> int:
     if args.count < 1:
         raise InputError("--count must be at least 1")
     paths = numbered(args.output, args.count)
-    model = base._model(args)
+    model = _load(args)
     textons, short = _textons(args, model, args.image)
     for i, path in enumerate(paths):
         seed = None if args.seed is None else args.seed + i
-        _save(_decode(args, model, reshuffle(textons, seed=seed), short), path)
+        common.save(_decode(args, model, reshuffle(textons, seed=seed), short), path)
     return 0
 
 
@@ -138,7 +124,7 @@ def cmd_interpolate(args: argparse.Namespace) -> int:
     if not 0 <= args.t <= 1:
         raise InputError(f"--t must lie in [0, 1], got {args.t}")
     (check_sequence_output if args.frames else check_output_path)(args.output)
-    model = base._model(args)
+    model = _load(args)
     a, short = _textons(args, model, args.image)
     b, _ = _textons(args, model, args.other)
     seed = args.seed or 0
@@ -147,7 +133,7 @@ def cmd_interpolate(args: argparse.Namespace) -> int:
         _save_frames(_decode_frames(args, model, frames, short), args.output, args.fps)
         return 0
     out = interpolate_spatially(a, b, seed) if args.spatial else interpolate(a, b, args.t, seed)
-    _save(_decode(args, model, out, short), args.output)
+    common.save(_decode(args, model, out, short), args.output)
     return 0
 
 
@@ -160,9 +146,10 @@ def cmd_vary(args: argparse.Namespace) -> int:
     if args.appearance < 0 or args.shape < 0:
         raise InputError("--appearance and --shape must be >= 0")
     check_output_path(args.output)
-    model = base._model(args)
+    model = _load(args)
     textons, short = _textons(args, model, args.image)
-    _save(_decode(args, model, vary(textons, args.appearance, args.shape), short), args.output)
+    out = vary(textons, args.appearance, args.shape)
+    common.save(_decode(args, model, out, short), args.output)
     return 0
 
 
@@ -176,14 +163,14 @@ def cmd_edit(args: argparse.Namespace) -> int:
     check_output_path(args.output)
     if args.textons_out and args.textons_out.suffix not in TEXTON_FILES:
         raise InputError(f"{args.textons_out}: textons are written as .json or .pt")
-    model = base._model(args)
+    model = _load(args)
     textons, short = _textons(args, model, args.image)
     edited = apply_edit_list(textons, args.edits)
     image = _decode(args, model, edited, short)
     if args.textons_out:
         save_textons(edited, args.textons_out)
         print(f"wrote {args.textons_out}")
-    _save(image, args.output)
+    common.save(image, args.output)
     return 0
 
 
@@ -195,14 +182,14 @@ def cmd_propagate(args: argparse.Namespace) -> int:
 
     check_output_path(args.output)
     edited = load_image(args.edited, max_side=args.max_side).to(args.device)
-    model = base._model(args)
-    original, enc = base._encode(args, model)
+    model = _load(args)
+    original, enc = common.encode(model, args.image, args.max_side, args.device)
     if edited.shape != original.shape:
         raise InputError(f"{args.edited}: {edited.shape[2]}x{edited.shape[1]}, but the original "
                          f"is {original.shape[2]}x{original.shape[1]}")
     out = propagate_edit(original, edited, enc.textons, args.threshold, args.radius)
     print(f"edited texton {out.source}; propagated to {int(out.targets.sum())} similar textons")
-    _save(out.image, args.output)
+    common.save(out.image, args.output)
     return 0
 
 
@@ -215,7 +202,7 @@ def cmd_animate(args: argparse.Namespace) -> int:
     if args.frames < 1 or args.fps <= 0 or args.duration <= 0:
         raise InputError("--frames, --fps and --duration must be positive")
     check_sequence_output(args.output)
-    model = base._model(args)
+    model = _load(args)
     textons, short = _textons(args, model, args.image)
     frames = animate(textons, args.flow, args.frames, args.duration, args.seed or 0,
                      args.velocity, args.omega)
@@ -235,20 +222,20 @@ def cmd_stylize(args: argparse.Namespace) -> int:
         raise InputError("need --scale > 0 and 0 <= --overlap < 1")
     regions = _regions(args.regions, len(args.texture), args.max_side)
     content = load_image(args.image, max_side=args.max_side).to(args.device)
-    model = base._model(args)
+    model = _load(args)
     apps = [_textons(args, model, p)[0] for p in args.texture]
-    patch = args.patch or int(getattr(model, "config", {}).get("image_size") or 128)
+    patch = args.patch or model.config.image_size or 128
     textons = content_textons(model, content, patch, args.scale, args.overlap, args.seed or 0,
                               progress=_progress("patches"))
     out = _with_appearance(textons, apps, regions, args.mode, args.seed or 0)
-    _save(_decode(args, model, out, min(content.shape[-2:])), args.output)
+    common.save(_decode(args, model, out, min(content.shape[-2:])), args.output)
     return 0
 
 
-def add_edit_commands(sub) -> None:
+def add_commands(sub) -> None:
     """Register the editing subcommands on the ``neuraltex`` subparsers."""
-    cmd = base._model_command
-    img = base.IMAGE_OUT
+    cmd = common.model_command
+    img = IMAGE_OUT
     p = cmd(sub, "transfer", cmd_transfer, "structure of one texture, appearance of another",
             "structure", img)
     p.add_argument("appearance", type=Path, nargs="+", help="appearance texture(s)")

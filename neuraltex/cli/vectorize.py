@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from neuraltex import cli as base
+from neuraltex.cli import common
 from neuraltex.errors import InputError
 
 
@@ -22,7 +22,9 @@ def cmd_vectorize(args: argparse.Namespace) -> int:
         raise InputError("--kinds must be >= 1 and --level > 0")
     if args.mode == "ellipse" and args.segmenter != "model":
         raise InputError("--mode ellipse needs the texton model (--segmenter model)")
-    model = base._model(args) if args.segmenter == "model" else None
+    model = None
+    if args.segmenter == "model":
+        model = common.load(args.checkpoint, args.device, args.seed)
     image = load_image(args.image, max_side=args.max_side).to(args.device)
     seg, textons = segment_image(image, args.segmenter, model, args.source,
                                  background=not args.keep_backdrop)
@@ -42,9 +44,10 @@ def cmd_vectorize(args: argparse.Namespace) -> int:
     return 0
 
 
-def add_vectorize_command(sub) -> None:
-    p = base._model_command(sub, "vectorize", cmd_vectorize, "image -> SVG of its textons",
-                            "image", "output .svg", size=False)
+def add_commands(sub) -> None:
+    """Register vectorize."""
+    p = common.model_command(sub, "vectorize", cmd_vectorize, "image -> SVG of its textons",
+                             "image", "output .svg", size=False)
     p.add_argument("--mode", choices=("regions", "ellipse"), default="regions",
                    help="regions (default): traced segment outlines; ellipse: the Gaussians")
     p.add_argument("--segmenter", default="model",

@@ -1,0 +1,5 @@
+"""``python -m neuraltex.cli``."""
+
+from neuraltex.cli import main
+
+raise SystemExit(main())

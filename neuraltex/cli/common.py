@@ -1,0 +1,144 @@
+"""What every ``neuraltex`` subcommand shares: loading the model, reading a texture (an image or
+a texton file) into textons, output sizes, decoding, and the argparse pieces.
+
+Helpers take explicit values, never the argparse ``Namespace``. Every command that needs the
+model goes through :func:`load`; every command that reads a texture goes through
+:func:`textons_of` (or :func:`encode` where it needs the image itself), so a new input kind is
+added in one place. Heavy imports happen inside the functions (``--help`` stays fast).
+"""
+
+from __future__ import annotations
+
+import argparse
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+from neuraltex.errors import InputError
+
+if TYPE_CHECKING:
+    from torch import Tensor
+
+    from neuraltex.model import Encoded, TextonAutoencoder
+    from neuraltex.textons import Textons
+
+IMAGE_OUT = ".png/.jpg/.webp"
+TEXTON_FILES = (".json", ".pt")
+
+
+def load(checkpoint: str | Path | None, device: str = "cpu",
+         seed: int | None = None) -> TextonAutoencoder:
+    """The model at ``checkpoint`` (None: the shipped default) on ``device``; ``seed`` seeds
+    torch first (texton existence is sampled in some commands)."""
+    import torch
+
+    from neuraltex.model import DEFAULT_MODEL, load_model
+
+    path = Path(checkpoint) if checkpoint else DEFAULT_MODEL
+    if not checkpoint and not path.exists():
+        raise InputError("no default model is shipped; pass --checkpoint MODEL.safetensors "
+                         "(python -m train writes one)")
+    if seed is not None:
+        torch.manual_seed(seed)
+    return load_model(path, device=device)
+
+
+def encode(model: TextonAutoencoder, path: Path, max_side: int,
+           device: str = "cpu") -> tuple[Tensor, Encoded]:
+    """(image (3, H, W) in [0, 1], ``model.encode(image)``) of the image at ``path``; images
+    with a side above ``max_side`` are downscaled first."""
+    import torch
+
+    from neuraltex.imageio import load_image
+
+    image = load_image(path, max_side=max_side).to(device)
+    with torch.no_grad():
+        return image, model.encode(image[None])
+
+
+@dataclass
+class Texture:
+    """One texture read by :func:`textons_of`."""
+
+    textons: Textons  # one set (batch size 1), on the model's device
+    short: int  # default output short side: the image's, or 256 for a texton file
+    image: Tensor | None = None  # (3, H, W) when read from an image
+    masks: Tensor | None = None  # (n, h, w) softmax masks when read from an image
+
+
+def textons_of(model: TextonAutoencoder, path: Path, max_side: int,
+               device: str = "cpu") -> Texture:
+    """The textons of a texture given as an image (encoded by ``model``) or as a texton file
+    (.json/.pt, checked against the model; it must hold one set)."""
+    if path.suffix.lower() in TEXTON_FILES:
+        from neuraltex.textons_file import load_textons
+
+        t = load_textons(path)
+        check_fits(t, model, path)
+        if t.batch_size != 1:
+            raise InputError(f"{path}: holds {t.batch_size} texton sets; editing takes one")
+        return Texture(t.to(device=device), 256)
+    image, enc = encode(model, path, max_side, device)
+    return Texture(enc.textons, min(image.shape[-2:]), image, enc.masks[0])
+
+
+def check_fits(textons: Textons, model: TextonAutoencoder, source: Path) -> None:
+    """InputError unless the textons have the feature channels the model's generator takes."""
+    if textons.feature_dim + 2 != model.generator.feature_channels:
+        raise InputError(f"{source}: {textons.feature_dim} feature channels, but the "
+                         f"model expects {model.generator.feature_channels - 2}")
+
+
+def output_size(size: list[int] | None, canvas: tuple[float, float],
+                default_short: int) -> tuple[int, int]:
+    """(H, W) from ``--size N`` (short side) or ``--size H W``, else the canvas (w, h) at
+    ``default_short``."""
+    if size:
+        if len(size) == 2:
+            return int(size[0]), int(size[1])
+        short = int(size[0])
+    else:
+        short = default_short
+    w, h = canvas
+    s = short / min(w, h)
+    return max(1, round(h * s)), max(1, round(w * s))
+
+
+def decode(model: TextonAutoencoder, textons: Textons, size: tuple[int, int],
+           device: str = "cpu") -> Tensor:
+    """Textons -> images (B, 3, H, W) in [0, 1] at ``size`` = (H, W), without gradients."""
+    import torch
+
+    with torch.no_grad():
+        return model.decode(textons.to(device=device), size)
+
+
+def save(image: Tensor, path: Path) -> None:
+    """Write an image (3, H, W) and say so."""
+    from neuraltex.imageio import save_image
+
+    save_image(image, path)
+    print(f"wrote {path} ({image.shape[-1]}x{image.shape[-2]})")
+
+
+def add_model_options(p: argparse.ArgumentParser, size: bool = True) -> None:
+    """--checkpoint, --device, --seed, --max-side (and --size) of the model commands."""
+    p.add_argument("--checkpoint", help="model .safetensors (default: the shipped model)")
+    p.add_argument("--device", default="cpu", help="torch device (default: cpu)")
+    p.add_argument("--seed", type=int, help="random seed")
+    p.add_argument("--max-side", type=int, default=2048,
+                   help="larger inputs are downscaled to this side (default 2048)")
+    if size:
+        p.add_argument("--size", type=int, nargs="+", metavar="N",
+                       help="output size: N (short side) or H W")
+
+
+def model_command(sub, name: str, func, help: str, source: str, output_help: str,
+                  size: bool = True) -> argparse.ArgumentParser:
+    """A subcommand that reads ``source``, runs the model and writes ``-o OUTPUT``."""
+    p = sub.add_parser(name, help=help, description=func.__doc__)
+    p.add_argument(source, type=Path, help=f"input {source}")
+    p.add_argument("-o", "--output", type=Path, required=True, help=output_help)
+    add_model_options(p, size=size)
+    p.set_defaults(func=func)
+    return p

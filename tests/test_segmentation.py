@@ -1,0 +1,97 @@
+"""E_s (neuraltex/segmentation.py): shapes, softmax masks, masked attention, anchor prior."""
+
+from __future__ import annotations
+
+import pytest
+import torch
+
+from conftest import BATCHES, SIZES
+from neuraltex.segmentation import (
+    SegmentationConfig,
+    SegmentationNet,
+    masked_attention,
+    sine_position_encoding,
+)
+
+pytestmark = pytest.mark.usefixtures("one_thread", "seeded")
+
+
+@pytest.mark.parametrize("b", BATCHES)
+@pytest.mark.parametrize("hw", SIZES)
+def test_segmentation_shapes_and_softmax(tiny, b, hw):
+    seg = SegmentationNet.from_config(tiny.segmentation)
+    out = seg(torch.rand(b, 3, *hw))
+    n = tiny.segmentation.num_queries
+    assert out.logits.shape == out.masks.shape == (b, n, *hw)
+    assert len(out.aux_logits) == tiny.segmentation.num_layers + 1
+    assert torch.allclose(out.masks.sum(dim=1), torch.ones(b, *hw), atol=1e-5)
+    assert (out.masks >= 0).all()
+
+
+def test_segmentation_odd_size(tiny):
+    seg = SegmentationNet.from_config(tiny.segmentation)
+    out = seg(torch.rand(1, 3, 37, 50))
+    assert out.masks.shape == (1, tiny.segmentation.num_queries, 37, 50)
+
+
+def test_masked_attention_function_zeroes_blocked():
+    q, k, v = torch.randn(2, 4, 3, 8), torch.randn(2, 4, 10, 8), torch.randn(2, 4, 10, 8)
+    blocked = torch.zeros(2, 3, 10, dtype=torch.bool)
+    blocked[:, 0, 5:] = True  # query 0 may only look at the first half
+    out, w = masked_attention(q, k, v, blocked)
+    assert (w[:, :, 0, 5:] == 0).all()
+    assert torch.allclose(w.sum(-1), torch.ones(2, 4, 3))
+    ref, _ = masked_attention(q[:, :, :1], k[:, :, :5], v[:, :, :5])  # same as dropping keys
+    assert torch.allclose(out[:, :, :1], ref, atol=1e-6)
+
+
+def test_masked_attention_gradcheck_float64():
+    q, k, v = (torch.randn(1, 2, 3, 4, dtype=torch.float64, requires_grad=True) for _ in range(3))
+    blocked = torch.tensor([[[False, True, False], [False, False, False], [True, True, False]]])
+    assert torch.autograd.gradcheck(lambda a, b, c: masked_attention(a, b, c, blocked)[0],
+                                    (q, k, v))
+
+
+@pytest.mark.parametrize("mode", ["softmax", "sigmoid"])
+def test_decoder_attention_is_masked_by_previous_prediction(tiny, mode):
+    cfg = SegmentationConfig(**{**tiny.segmentation.__dict__, "attn_mask_mode": mode})
+    seg = SegmentationNet.from_config(cfg)
+    out = seg(torch.rand(2, 3, 64, 64), return_attention=True)
+    assert len(out.attn_masks) == len(out.attn_weights) == cfg.num_layers
+    for blocked, w, prev in zip(out.attn_masks, out.attn_weights,
+                                out.aux_logits[:-1], strict=True):
+        assert w.shape[-1] == blocked.shape[-1]
+        assert (w.permute(1, 0, 2, 3)[:, blocked] == 0).all()  # zero weight where blocked
+        side = round(blocked.shape[-1] ** 0.5)  # square input: square memory levels
+        # the mask comes from the previous layer's prediction (the initial queries' for layer 0)
+        assert torch.equal(blocked, seg.blocked_from_logits(prev, (side, side)))
+    assert any(b.any() for b in out.attn_masks), "masks never block anything"
+
+
+def test_sine_position_encoding_shape_and_range():
+    pe = sine_position_encoding(5, 7, 10)
+    assert pe.shape == (10, 5, 7) and pe.abs().max() <= 1
+    assert not torch.allclose(pe[:, 0, 0], pe[:, 4, 6])
+
+
+def test_anchor_prior_starts_as_a_grid_partition_and_follows_its_offsets():
+    from neuraltex.segmentation import AnchorPrior
+
+    prior = AnchorPrior(num_queries=9, hidden_dim=8)
+    q = torch.zeros(1, 9, 8)
+    owner = prior(q, (30, 30), (1.0, 1.0)).argmax(1)[0]  # (30, 30)
+    expected = (torch.arange(30) // 10)[:, None] * 3 + (torch.arange(30) // 10)[None, :]
+    assert torch.equal(owner, expected)  # 3 x 3 grid, raster order
+    with torch.no_grad():
+        prior.head.bias[:2] = torch.tensor([10.0, 0.0])  # tanh -> +2 cells in x for all
+    shifted = prior(q, (30, 30), (1.0, 1.0))
+    # query 0 (anchor at column 0) now peaks two cells to the right
+    peak = shifted[0, 0].amax(0).argmax()
+    assert 20 <= int(peak) <= 29
+
+
+def test_segmentation_bad_arguments_raise():
+    with pytest.raises(ValueError):
+        SegmentationNet(backbone="small", backbone_channels=(8, 16), num_queries=4)
+    with pytest.raises(ValueError):
+        SegmentationNet(backbone="small", hidden_dim=30, num_heads=4, num_queries=4)

@@ -1,0 +1,112 @@
+"""Build what a run trains, and restore it: from the run's own checkpoint (resume) or from
+other models (``trainer.init_from``, ``trainer.init_parts``)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import torch
+from omegaconf import DictConfig, OmegaConf
+from torch.nn.parallel import DistributedDataParallel as DDP
+
+from neuraltex.checkpoint import load_exported_model, load_training_checkpoint, set_rng_state
+from neuraltex.model import TextonAutoencoder, build_model
+from neuraltex.model_config import ModelConfig
+from train.loss_config import LossConfig
+from train.objective import CriticObjective, GeneratorObjective
+
+
+@dataclass
+class Parts:
+    """The model, its critics, their objectives and optimizers: what a step changes."""
+
+    model: TextonAutoencoder
+    critics: CriticObjective
+    gen: GeneratorObjective
+    gen_step: torch.nn.Module  # gen, or its DDP wrapper
+    crit_step: torch.nn.Module  # critics, or their DDP wrapper
+    opt_g: torch.optim.Optimizer
+    opt_d: torch.optim.Optimizer
+    loss: LossConfig
+    device: torch.device
+    amp: bool = False  # bfloat16 autocast (CUDA only)
+
+
+@dataclass
+class Progress:
+    """Where a run starts: step, wall time spent before, and the headers it started from."""
+
+    start: int = 0
+    wall_before: float = 0.0
+    init: dict = field(default_factory=dict)
+
+
+def model_config(cfg: DictConfig) -> ModelConfig:
+    return ModelConfig.from_dict(OmegaConf.to_container(cfg.model, resolve=True))
+
+
+def loss_config(cfg: DictConfig) -> LossConfig:
+    return LossConfig.from_dict(OmegaConf.to_container(cfg.loss, resolve=True))
+
+
+def build(cfg: DictConfig, device: torch.device, world: int = 1) -> Parts:
+    """Model, critics, objectives and Adam optimizers as configured (``trainer.freeze`` parts
+    get no gradient); DDP-wrapped step modules when ``world`` > 1."""
+    T, mcfg, loss = cfg.trainer, model_config(cfg), loss_config(cfg)
+    model, image_critic, patch_critic = build_model(mcfg, with_critics=True)
+    critics = CriticObjective(image_critic, patch_critic, loss, mcfg.image_size).to(device)
+    gen = GeneratorObjective(model, critics, loss).to(device)
+    for name in T.freeze or ():  # e.g. [segmenter]: fine-tune the rest around a fixed E_s
+        getattr(model, name).requires_grad_(False)
+    trainable = [p for p in model.parameters() if p.requires_grad]
+    opt_g = torch.optim.Adam(trainable, lr=T.lr, betas=tuple(T.betas))
+    opt_d = torch.optim.Adam(critics.parameters(), lr=T.d_lr, betas=tuple(T.betas))
+    wrap = (lambda m: DDP(m, find_unused_parameters=True)) if world > 1 else (lambda m: m)
+    return Parts(model, critics, gen, wrap(gen), wrap(critics), opt_g, opt_d, loss, device,
+                 amp=bool(T.amp) and device.type == "cuda")
+
+
+def restore(parts: Parts, T: DictConfig, run_dir: Path) -> Progress:
+    """Resume from ``trainer.resume`` (a last.pt, or "auto": run_dir/last.pt when it exists),
+    else start from ``trainer.init_from`` / ``trainer.init_parts``, else from scratch."""
+    resume = run_dir / "last.pt" if T.resume == "auto" else T.resume
+    if resume and Path(resume).exists():
+        ck = load_training_checkpoint(resume)
+        parts.model.load_state_dict(ck["modules"]["model"])
+        parts.critics.load_state_dict(ck["modules"]["critics"])
+        parts.opt_g.load_state_dict(ck["optimizers"]["g"])
+        parts.opt_d.load_state_dict(ck["optimizers"]["d"])
+        set_rng_state(ck["rng"])
+        extra = ck.get("extra", {})
+        return Progress(ck["step"], float(extra.get("wall_s", 0.0)), extra.get("init", {}))
+    if T.init_from or T.init_parts:
+        return Progress(init=init_from(parts.model, T.init_from, T.init_parts))
+    return Progress()
+
+
+def init_from(model: TextonAutoencoder, path, parts) -> dict:
+    """Start a new run from ``trainer.init_from`` (a training checkpoint last.pt or an inference
+    export) and then ``trainer.init_parts`` ({part: path}, e.g. ``{segmenter: runs/default_
+    segmenter/model.safetensors}``: that model part only). Returns the header entries to record:
+    ``init_from`` and ``init_parts`` (path, and the source's own header when it has one)."""
+
+    def load(p) -> tuple[dict, dict]:
+        if str(p).endswith(".safetensors"):
+            weights, _, info = load_exported_model(p)
+            return weights, {"path": str(p), "info": info}
+        return load_training_checkpoint(p)["modules"]["model"], {"path": str(p)}
+
+    record: dict = {}
+    if path:
+        weights, record["init_from"] = load(path)
+        model.load_state_dict(weights)
+    for part, p in (parts or {}).items():
+        weights, source = load(p)
+        prefix = f"{part}."
+        weights = {k[len(prefix):]: v for k, v in weights.items() if k.startswith(prefix)}
+        if not weights or not hasattr(model, part):
+            raise ValueError(f"trainer.init_parts: {p} has no model part {part!r}")
+        getattr(model, part).load_state_dict(weights)
+        record.setdefault("init_parts", {})[part] = source
+    return record
