@@ -32,6 +32,7 @@ from neuraltex.model_config import ModelConfig
 TRAIN_FORMAT = "neuraltex.train-checkpoint"
 EXPORT_FORMAT = "neuraltex.model"
 VERSION = 1
+MAX_HEADER_DEPTH = 64  # nesting of a header's 'info' (each training stage adds a few levels)
 
 
 class CheckpointError(InputError):
@@ -122,10 +123,7 @@ def load_exported_model(path: str | os.PathLike) -> tuple[dict[str, torch.Tensor
     if meta.get("sha256") != _tensor_digest(tensors):
         raise CheckpointError(f"{path}: weights do not match their recorded checksum "
                               "(file modified or corrupted)")
-    try:
-        return tensors, json.loads(meta["model_config"]), json.loads(meta.get("info", "{}"))
-    except (KeyError, json.JSONDecodeError):
-        raise CheckpointError(f"{path}: model header is malformed") from None
+    return (tensors, *_header(meta, path))
 
 
 def export_header(path: str | os.PathLike) -> tuple[dict, dict]:
@@ -136,26 +134,58 @@ def export_header(path: str | os.PathLike) -> tuple[dict, dict]:
     try:
         with safe_open(str(path), framework="pt") as fh:
             meta = fh.metadata() or {}
-        return json.loads(meta["model_config"]), json.loads(meta.get("info", "{}"))
-    except (SafetensorError, OSError, ValueError, KeyError, RuntimeError):
+    except (SafetensorError, OSError, ValueError, RuntimeError):
         raise CheckpointError(f"{path}: not a readable neuraltex model export") from None
+    return _header(meta, path)
+
+
+def _header(meta: dict[str, str], path: str | os.PathLike) -> tuple[dict, dict]:
+    """(model_config, info) of an export header: JSON objects of bounded depth, the config
+    valid for :class:`ModelConfig`; anything else is a :class:`CheckpointError`."""
+    try:
+        config, info = json.loads(meta["model_config"]), json.loads(meta.get("info", "{}"))
+    except (KeyError, json.JSONDecodeError, RecursionError):
+        raise CheckpointError(f"{path}: model header is malformed") from None
+    if not isinstance(config, dict) or not isinstance(info, dict):
+        raise CheckpointError(f"{path}: model header 'model_config' and 'info' must be objects")
+    if _depth(info) > MAX_HEADER_DEPTH:
+        raise CheckpointError(f"{path}: model header 'info' nests deeper than {MAX_HEADER_DEPTH}")
+    try:
+        ModelConfig.from_dict(config)
+    except (ValueError, TypeError) as exc:
+        raise CheckpointError(f"{path}: model header: {exc}") from None
+    return config, info
+
+
+def _depth(x: Any) -> int:
+    children = x.values() if isinstance(x, dict) else x if isinstance(x, list) else ()
+    return 1 + max(map(_depth, children), default=0)
 
 
 def summary(config: dict, info: dict) -> str:
     """One line: architecture and how it was trained (stages, steps, wall time, supervision)."""
     queries = config.get("num_queries") or "preset"
     stages, cur = [], info
-    while cur:
+    while isinstance(cur, dict) and cur and len(stages) < MAX_HEADER_DEPTH:
         sup = cur.get("mask_supervision", "?")
-        frozen = f", {'+'.join(cur['freeze'])} frozen" if cur.get("freeze") else ""
-        parts = "".join(f", {part} taken from a {(src.get('info') or {}).get('steps', '?')}-step "
-                        "model" for part, src in (cur.get("init_parts") or {}).items())
-        stages.insert(0, f"{cur.get('steps', '?')} steps / {cur.get('wall_s', 0) / 60:.0f} min "
+        freeze = cur.get("freeze") if isinstance(cur.get("freeze"), list) else None
+        frozen = f", {'+'.join(map(str, freeze))} frozen" if freeze else ""
+        parts = "".join(f", {part} taken from a {_sub(src, 'info').get('steps', '?')}-step "
+                        "model" for part, src in _sub(cur, "init_parts").items())
+        wall = cur.get("wall_s", 0)
+        minutes = f"{wall / 60:.0f}" if isinstance(wall, (int, float)) else "?"
+        stages.insert(0, f"{cur.get('steps', '?')} steps / {minutes} min "
                          f"on {cur.get('device', '?')} (mask supervision {sup}{frozen}{parts})")
-        cur = (cur.get("init_from") or {}).get("info")
+        cur = _sub(_sub(cur, "init_from"), "info")
     return (f"preset {config.get('preset')}, {queries} queries, trained at "
             f"{config.get('image_size')} px: " + " then ".join(stages)
             + f"; LPIPS backbone {info.get('lpips_backbone', '?')}")
+
+
+def _sub(d: Any, key: str) -> dict:
+    """``d[key]`` when both are dicts, else {}: headers from other tools may hold anything."""
+    value = d.get(key) if isinstance(d, dict) else None
+    return value if isinstance(value, dict) else {}
 
 
 def _tensor_digest(tensors: dict[str, torch.Tensor]) -> str:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import argparse
 import functools
 import os
 import sys
@@ -39,6 +40,14 @@ def cli_entry(prog: str) -> Callable[[Callable[..., int | None]], Callable[..., 
         return run
 
     return wrap
+
+
+class OneLineParser(argparse.ArgumentParser):
+    """An ArgumentParser whose errors are :class:`InputError`: one line, exit code 2 (through
+    :func:`cli_entry`) instead of the usage block; ``--help`` shows the usage."""
+
+    def error(self, message: str):
+        raise InputError(f"{message} (see {self.prog} --help)")
 
 
 def dispatch(parser, argv: list[str] | None = None) -> int:

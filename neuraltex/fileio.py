@@ -19,9 +19,13 @@ def atomic_path(path: str | os.PathLike) -> Iterator[Path]:
     The temporary file keeps the suffix of ``path`` so writers that pick a format
     by extension (PIL, torch, svg writers) behave the same.
     """
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}.tmp-", suffix=path.suffix, dir=path.parent)
+    path = check_writable(path)
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(prefix=f".{path.stem[:64]}.tmp-", suffix=path.suffix,
+                                   dir=path.parent)
+    except OSError as exc:
+        raise _unwritable(path, exc) from None
     os.close(fd)
     tmp_path = Path(tmp)
     try:
@@ -31,9 +35,44 @@ def atomic_path(path: str | os.PathLike) -> Iterator[Path]:
         os.umask(umask)
         os.chmod(tmp_path, 0o666 & ~umask)
         os.replace(tmp_path, path)
+    except OSError as exc:
+        raise _unwritable(path, exc) from None
     finally:
         if tmp_path.exists():
             tmp_path.unlink()
+
+
+def check_writable(path: str | os.PathLike) -> Path:
+    """``path`` as a Path when a file could be written there: a non-empty name of at most
+    255 bytes, not a folder, under a folder that exists (or can be made) and is writable.
+    Raises :class:`neuraltex.errors.InputError` otherwise, before any work is done."""
+    from neuraltex.errors import InputError
+
+    path = Path(path)
+    if not path.name or str(path) in (".", ".."):
+        raise InputError(f"{str(path)!r}: not a file name")
+    if len(os.fsencode(path.name)) > 255:
+        raise InputError(f"{path.name[:40]}...: file name longer than 255 bytes")
+    try:
+        if path.is_dir():
+            raise InputError(f"{path}: is a folder")
+        folder = path.parent
+        while not folder.exists() and folder != folder.parent:
+            folder = folder.parent
+        writable = os.access(folder, os.W_OK | os.X_OK)
+    except OSError as exc:
+        raise _unwritable(path, exc) from None
+    if not folder.is_dir():
+        raise InputError(f"{path}: {folder} is not a folder")
+    if not writable:
+        raise InputError(f"{path}: folder {folder} is not writable")
+    return path
+
+
+def _unwritable(path: Path, exc: OSError) -> Exception:
+    from neuraltex.errors import InputError, one_line
+
+    return InputError(f"{path}: cannot write ({one_line(exc)})")
 
 
 def write_bytes_atomic(path: str | os.PathLike, data: bytes) -> None:

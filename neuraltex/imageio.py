@@ -3,8 +3,9 @@ Frame sequences go to an animated GIF, an MP4 (when imageio has a video writer) 
 pictures (``out_{i}.png``).
 
 Grayscale, palette, RGBA/LA (composited on white), CMYK and 16-bit images are converted, not
-rejected. Corrupt or unreadable files raise :class:`InputError`. Images larger than
-``max_side`` are downscaled with a notice instead of running out of memory.
+rejected. Corrupt or unreadable files raise :class:`InputError`. Images beyond the picture
+budget (:class:`neuraltex.limits.Limits`) are downscaled with a notice instead of running out of
+memory; extreme aspect ratios are refused.
 """
 
 from __future__ import annotations
@@ -19,10 +20,11 @@ import torch
 from PIL import Image, UnidentifiedImageError
 
 from neuraltex.errors import InputError
-from neuraltex.fileio import atomic_path
+from neuraltex.fileio import atomic_path, check_writable
+from neuraltex.limits import MAX_SIDE, Limits
 
 WRITE_FORMATS = {".png": "PNG", ".jpg": "JPEG", ".jpeg": "JPEG", ".webp": "WEBP"}
-MAX_PIXELS = 16384 * 16384  # refuse to even decode beyond this (decompression bombs)
+MAX_DECODE_PIXELS = 16384 * 16384  # refuse to even decode beyond this (decompression bombs)
 
 
 def _to_rgb(im: Image.Image) -> np.ndarray:
@@ -39,29 +41,34 @@ def _to_rgb(im: Image.Image) -> np.ndarray:
     return np.asarray(im.convert("RGB"), dtype=np.float32) / 255.0
 
 
-def load_image(path: str | os.PathLike, max_side: int = 2048) -> torch.Tensor:
-    """Read an image as (3, H, W) float32 in [0, 1]."""
+def load_image(path: str | os.PathLike, max_side: int = MAX_SIDE,
+               limits: Limits | None = None) -> torch.Tensor:
+    """Read an image as (3, H, W) float32 in [0, 1], downscaled into ``limits`` (default: the
+    standard budget with ``max_side``); an extreme aspect ratio is refused."""
     path = Path(path)
+    limits = limits or Limits(max_side=max_side)
     if not path.is_file():
         raise InputError(f"{path}: no such image file")
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("error", Image.DecompressionBombWarning)
-            Image.MAX_IMAGE_PIXELS = MAX_PIXELS
+            Image.MAX_IMAGE_PIXELS = MAX_DECODE_PIXELS
             with Image.open(path) as im:
-                im.load()
                 w, h = im.size
-                if max(w, h) > max_side:
-                    s = max_side / max(w, h)
-                    size = (max(1, round(w * s)), max(1, round(h * s)))
+                size = limits.input_size(w, h, str(path))  # before decoding any pixel
+                im.load()
+                if size != (w, h):
                     print(f"note: {path} is {w}x{h}; downscaled to {size[0]}x{size[1]} "
-                          f"(--max-side {max_side})", file=sys.stderr)
+                          f"(--max-side {limits.max_side}, --max-pixels {limits.max_pixels})",
+                          file=sys.stderr)
                     im = im.resize(size, Image.Resampling.LANCZOS)
                 arr = _to_rgb(im)
+    except InputError:
+        raise
     except (UnidentifiedImageError, Image.DecompressionBombError,
             Image.DecompressionBombWarning) as exc:
         raise InputError(f"{path}: not a readable image ({exc})") from None
-    except (OSError, ValueError, SyntaxError) as exc:
+    except (OSError, ValueError, SyntaxError, MemoryError) as exc:
         raise InputError(f"{path}: corrupt or unsupported image ({exc})") from None
     if arr.ndim != 3 or min(arr.shape[:2]) < 1:
         raise InputError(f"{path}: empty image")
@@ -69,10 +76,11 @@ def load_image(path: str | os.PathLike, max_side: int = 2048) -> torch.Tensor:
 
 
 def check_output_path(path: str | os.PathLike) -> Path:
+    """``path`` when a picture can be written there (known suffix, writable folder)."""
     path = Path(path)
     if path.suffix.lower() not in WRITE_FORMATS:
         raise InputError(f"{path}: output must end in one of {', '.join(WRITE_FORMATS)}")
-    return path
+    return check_writable(path)
 
 
 def save_image(image: torch.Tensor, path: str | os.PathLike) -> None:

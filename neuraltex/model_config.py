@@ -11,6 +11,8 @@ from __future__ import annotations
 from dataclasses import asdict, dataclass, fields
 from typing import TYPE_CHECKING, Any
 
+from neuraltex.limits import MAX_MODEL_SIDE, MAX_TEXTONS
+
 if TYPE_CHECKING:
     from neuraltex.networks import NetworksConfig
 
@@ -33,7 +35,9 @@ class ModelConfig:
         names = {f.name for f in fields(cls)}
         unknown = set(values) - names
         if unknown:
-            raise ValueError(f"unknown model settings: {', '.join(sorted(unknown))}")
+            raise ValueError(f"unknown model settings: {', '.join(sorted(unknown))[:200]}")
+        for name, value in values.items():
+            _check(name, value)
         return cls(**values)
 
     def to_dict(self) -> dict[str, Any]:
@@ -49,3 +53,33 @@ class ModelConfig:
         if self.anchor_prior is not None:
             nets.segmentation.anchor_prior = bool(self.anchor_prior)
         return nets
+
+
+# name -> (type, low, high, may be None): what a config (or a foreign export header) may hold.
+_BOUNDS: dict[str, tuple[type, float, float, bool]] = {
+    "num_queries": (int, 1, MAX_TEXTONS, True),
+    "image_size": (int, 8, MAX_MODEL_SIDE, True),
+    "estimation_size": (int, 8, MAX_MODEL_SIDE, True),
+    "eps": (float, 1e-12, 1.0, False),
+    "temperature": (float, 1e-3, 1e3, False),
+    "cutoff": (float, 0.5, 100.0, True),
+}
+
+
+def _check(name: str, value: Any) -> None:
+    """ValueError unless ``value`` is a sane setting ``name`` (types and ranges)."""
+    if name == "preset":
+        if not isinstance(value, str):
+            raise ValueError(f"model setting 'preset' must be a string, got {type(value).__name__}")
+        return
+    if name == "anchor_prior":
+        if value is not None and not isinstance(value, bool):
+            raise ValueError("model setting 'anchor_prior' must be true, false or null")
+        return
+    kind, lo, hi, optional = _BOUNDS[name]
+    if value is None and optional:
+        return
+    ok_type = isinstance(value, (int, float) if kind is float else int)
+    if not ok_type or isinstance(value, bool) or not lo <= value <= hi:
+        raise ValueError(f"model setting {name!r} must be {kind.__name__} in [{lo:g}, {hi:g}]"
+                         f"{' or null' if optional else ''}, got {str(value)[:40]}")

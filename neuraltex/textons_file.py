@@ -26,12 +26,14 @@ import torch
 
 from neuraltex.errors import InputError
 from neuraltex.fileio import atomic_path, load_weights_only, write_text_atomic
+from neuraltex.limits import MAX_FEATURES, MAX_SETS, MAX_TEXTONS
 from neuraltex.textons import _TENSOR_FIELDS, Textons
 
 FORMAT = "neuraltex.textons"
 VERSION = 1
 COORDINATES = "normalized: short image side = 1, origin top-left, x right, y down"
 MAX_FILE_BYTES = 512 * 2**20
+MIN_CANVAS, MAX_CANVAS = 1e-3, 1e3  # canvas sides in units of the short side (= 1 when written)
 _DTYPES = {"float32": torch.float32, "float64": torch.float64, "float16": torch.float16,
            "bfloat16": torch.bfloat16}
 
@@ -66,8 +68,10 @@ def load_textons(path: str | os.PathLike) -> Textons:
     if path.suffix == ".json":
         try:
             data = json.loads(path.read_text(encoding="utf-8"))
-        except (UnicodeDecodeError, json.JSONDecodeError) as exc:
+        except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
             raise TextonFileError(f"{path}: not valid JSON ({exc})") from None
+        except RecursionError:
+            raise TextonFileError(f"{path}: JSON nested too deeply") from None
         _check_header(data, path)
         textons = _from_json(data, path)
     elif path.suffix == ".pt":
@@ -76,8 +80,18 @@ def load_textons(path: str | os.PathLike) -> Textons:
         textons = _build(data, path)
     else:
         raise TextonFileError(f"{path}: texton files end in .json or .pt")
+    _check_counts(textons, path)
     validate_textons(textons, path)
     return textons
+
+
+def _check_counts(t: Textons, path: Path) -> None:
+    """Texton sets, textons per set and feature channels within neuraltex.limits."""
+    for n, cap, what in ((t.batch_size, MAX_SETS, "texton sets"),
+                         (t.num_textons, MAX_TEXTONS, "textons per set"),
+                         (t.feature_dim, MAX_FEATURES, "feature channels")):
+        if n > cap:
+            raise TextonFileError(f"{path}: {n} {what}, more than the limit of {cap}")
 
 
 def validate_textons(t: Textons, source: str | os.PathLike = "textons") -> None:
@@ -99,8 +113,9 @@ def validate_textons(t: Textons, source: str | os.PathLike = "textons") -> None:
     norm = t.v.double().norm(dim=-1)
     if ((norm - 1).abs() > 1e-3).any():
         raise TextonFileError(f"{source}: 'v' must hold unit vectors")
-    if not all(x > 0 and x == x and x != float("inf") for x in t.canvas):
-        raise TextonFileError(f"{source}: 'canvas' must be two positive numbers")
+    if not all(MIN_CANVAS <= x <= MAX_CANVAS for x in t.canvas):  # NaN fails too
+        raise TextonFileError(f"{source}: 'canvas' must be two numbers in "
+                              f"[{MIN_CANVAS:g}, {MAX_CANVAS:g}]")
 
 
 def _check_header(data, path: Path) -> None:
@@ -125,10 +140,18 @@ def _build(data: dict, path: Path) -> Textons:
     if missing:
         raise TextonFileError(f"{path}: missing or non-tensor fields {missing}")
     fields = {k: data[k] for k in _TENSOR_FIELDS}
+    odd = [k for k, v in fields.items() if v.layout != torch.strided or v.device.type != "cpu"]
+    if odd:
+        raise TextonFileError(f"{path}: {odd} must be dense tensors (not sparse or meta)")
     if fields["order"].is_floating_point() or fields["order"].is_complex():
         raise TextonFileError(f"{path}: 'order' must hold integers")
-    if any(not fields[k].is_floating_point() for k in _TENSOR_FIELDS if k != "order"):
-        raise TextonFileError(f"{path}: texton parameters must be floating point")
+    floats = [k for k in _TENSOR_FIELDS if k != "order"]
+    if any(fields[k].dtype not in _DTYPES.values() for k in floats):
+        raise TextonFileError(f"{path}: texton parameters must be floating point "
+                              f"({', '.join(_DTYPES)})")
+    dtypes = {fields[k].dtype for k in floats}
+    dtype = dtypes.pop() if len(dtypes) == 1 else torch.float32  # mixed: one common dtype
+    fields = {k: v.to(dtype) if k != "order" else v.long() for k, v in fields.items()}
     try:
         return Textons(**fields, canvas=_canvas(data, path))
     except (ValueError, TypeError) as exc:
@@ -152,17 +175,24 @@ def _to_json(t: Textons) -> dict:
 
 
 def _from_json(data: dict, path: Path) -> Textons:
-    dtype = _DTYPES.get(data.get("dtype", "float32"))
+    name = data.get("dtype", "float32")
+    dtype = _DTYPES.get(name) if isinstance(name, str) else None
     sets = data.get("sets")
     if dtype is None:
-        raise TextonFileError(f"{path}: unknown dtype {data.get('dtype')!r}")
+        raise TextonFileError(f"{path}: unknown dtype {str(name)[:40]!r} ({', '.join(_DTYPES)})")
     if not isinstance(sets, list) or not sets:
         raise TextonFileError(f"{path}: 'sets' must be a non-empty list")
+    if len(sets) > MAX_SETS:
+        raise TextonFileError(f"{path}: {len(sets)} texton sets, more than the limit of "
+                              f"{MAX_SETS}")
     cols: dict[str, list] = {k: [] for k in _TENSOR_FIELDS}
     for i, s in enumerate(sets):
         rows = s.get("textons") if isinstance(s, dict) else None
         if not isinstance(rows, list):
             raise TextonFileError(f"{path}: sets[{i}] has no 'textons' list")
+        if len(rows) > MAX_TEXTONS:
+            raise TextonFileError(f"{path}: sets[{i}] holds {len(rows)} textons, more than the "
+                                  f"limit of {MAX_TEXTONS}")
         for k in _TENSOR_FIELDS:
             try:
                 cols[k].append([row[k] for row in rows])
@@ -176,6 +206,6 @@ def _from_json(data: dict, path: Path) -> Textons:
         if fields["f"].dim() == 2:  # sets of zero textons
             fields["f"] = fields["f"].reshape(len(sets), 0, 0)
         return Textons(**fields, canvas=_canvas(data, path))
-    except (ValueError, TypeError, IndexError, RuntimeError) as exc:
+    except (ValueError, TypeError, IndexError, RuntimeError, OverflowError) as exc:
         raise TextonFileError(f"{path}: malformed texton values "
                               f"({' '.join(str(exc).split())[:200]})") from None

@@ -11,7 +11,7 @@ from __future__ import annotations
 import argparse
 
 from neuraltex import __version__
-from neuraltex.errors import cli_entry, dispatch
+from neuraltex.errors import OneLineParser, cli_entry, dispatch
 
 
 class _Version(argparse.Action):
@@ -38,7 +38,7 @@ class _Version(argparse.Action):
 def build_parser() -> argparse.ArgumentParser:
     from neuraltex.cli import codec, edit, vectorize
 
-    parser = argparse.ArgumentParser(
+    parser = OneLineParser(
         prog="neuraltex",
         description="Gaussian-texton textures: encode, edit and decode textures as textons.",
     )

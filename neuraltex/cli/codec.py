@@ -6,8 +6,9 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from neuraltex.cli import args as types
 from neuraltex.cli import common
-from neuraltex.cli.common import IMAGE_OUT, TEXTON_FILES
+from neuraltex.cli.common import IMAGE_OUT
 from neuraltex.errors import InputError
 
 
@@ -17,12 +18,11 @@ def cmd_encode(args: argparse.Namespace) -> int:
     from neuraltex.overlay import draw_overlay
     from neuraltex.textons_file import save_textons
 
-    if args.output.suffix not in TEXTON_FILES:
-        raise InputError(f"{args.output}: textons are written as .json or .pt")
+    common.check_textons_out(args.output)
     if args.overlay:
         check_output_path(args.overlay)
     model = common.load(args.checkpoint, args.device, args.seed)
-    image, enc = common.encode(model, args.image, args.max_side, args.device)
+    image, enc = common.encode(model, args.image, common.limits(args), args.device)
     save_textons(enc.textons, args.output)
     n = int(enc.textons.num_effective()[0])
     print(f"wrote {args.output}: {n} effective textons of {enc.textons.num_textons}")
@@ -34,14 +34,16 @@ def cmd_encode(args: argparse.Namespace) -> int:
 
 def cmd_decode(args: argparse.Namespace) -> int:
     """Decode a texton file into an image of any size."""
+    import torch
+
     from neuraltex.imageio import check_output_path, save_image
     from neuraltex.textons_file import load_textons
 
     check_output_path(args.output)
-    textons = load_textons(args.textons)
+    textons = load_textons(args.textons).to(dtype=torch.float32)
     model = common.load(args.checkpoint, args.device, args.seed)
     common.check_fits(textons, model, args.textons)
-    size = common.output_size(args.size, textons.canvas, 256)
+    size = common.output_size(args.size, textons.canvas, 256, common.limits(args))
     out = common.decode(model, textons, size, args.device)
     save_image(out[0], args.output)
     print(f"wrote {args.output} ({size[1]}x{size[0]})")
@@ -54,23 +56,26 @@ def cmd_reconstruct(args: argparse.Namespace) -> int:
 
     check_output_path(args.output)
     model = common.load(args.checkpoint, args.device, args.seed)
-    image, enc = common.encode(model, args.image, args.max_side, args.device)
-    size = common.output_size(args.size, enc.textons.canvas, min(image.shape[-2:]))
+    image, enc = common.encode(model, args.image, common.limits(args), args.device)
+    size = common.output_size(args.size, enc.textons.canvas, min(image.shape[-2:]),
+                              common.limits(args))
     common.save(common.decode(model, enc.textons, size, args.device)[0], args.output)
     return 0
 
 
 def cmd_overlay(args: argparse.Namespace) -> int:
     """Picture of the textons of an image: segments, Gaussian ellipses, directions."""
-    from neuraltex.fileio import write_text_atomic
+    from neuraltex.fileio import check_writable, write_text_atomic
     from neuraltex.imageio import check_output_path, save_pil
     from neuraltex.overlay import draw_overlay, ellipses_svg
 
     check_output_path(args.output)
     if args.svg and args.svg.suffix != ".svg":
         raise InputError(f"{args.svg}: must end in .svg")
+    if args.svg:
+        check_writable(args.svg)
     model = common.load(args.checkpoint, args.device, args.seed)
-    image, enc = common.encode(model, args.image, args.max_side, args.device)
+    image, enc = common.encode(model, args.image, common.limits(args), args.device)
     save_pil(draw_overlay(image, enc.textons, enc.masks[0], scale=args.scale), args.output)
     print(f"wrote {args.output}")
     if args.svg:
@@ -84,6 +89,8 @@ def cmd_textons(args: argparse.Namespace) -> int:
     """Validate a texton file, print a summary, optionally convert it (.json <-> .pt)."""
     from neuraltex.textons_file import load_textons, save_textons
 
+    if args.to:
+        common.check_textons_out(args.to)
     t = load_textons(args.file)
     print(f"{args.file}: {t.batch_size} set(s) x {t.num_textons} textons, "
           f"{t.feature_dim} feature channels, canvas {t.canvas[0]:g} x {t.canvas[1]:g}, "
@@ -91,8 +98,6 @@ def cmd_textons(args: argparse.Namespace) -> int:
     for b, n in enumerate(t.num_effective().tolist()):
         print(f"  set {b}: {n} effective textons (delta > 0.5)")
     if args.to:
-        if args.to.suffix not in TEXTON_FILES:
-            raise InputError(f"{args.to}: output must end in .json or .pt")
         save_textons(t, args.to)
         print(f"wrote {args.to}")
     return 0
@@ -133,11 +138,13 @@ def add_commands(sub) -> None:
     p = common.model_command(sub, "overlay", cmd_overlay, "picture of an image's textons",
                              "image", IMAGE_OUT, size=False)
     p.add_argument("--svg", type=Path, help="also write the Gaussians as SVG ellipses")
-    p.add_argument("--scale", type=int, default=2, help="picture magnification (default 2)")
+    p.add_argument("--scale", type=types.integer(1, 4), default=2,
+                   help="picture magnification, 1 to 4 (default 2)")
 
     p = sub.add_parser("model-info", help="which model is used and how it was trained",
                        description=cmd_model_info.__doc__)
     p.add_argument("--checkpoint", help="model .safetensors (default: the shipped model)")
-    p.add_argument("--device", default="cpu", help="torch device (default: cpu)")
+    p.add_argument("--device", default="cpu", type=types.device,
+                   help="torch device: cpu (default), cuda, cuda:N or mps")
     p.add_argument("--json", action="store_true", help="also print the full header as JSON")
     p.set_defaults(func=cmd_model_info)

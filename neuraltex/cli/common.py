@@ -14,7 +14,9 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from neuraltex.cli import args as types
 from neuraltex.errors import InputError
+from neuraltex.limits import MAX_ASPECT, MAX_PIXELS, MAX_SIDE, Limits
 
 if TYPE_CHECKING:
     from torch import Tensor
@@ -43,15 +45,20 @@ def load(checkpoint: str | Path | None, device: str = "cpu",
     return load_model(path, device=device)
 
 
-def encode(model: TextonAutoencoder, path: Path, max_side: int,
+def limits(args: argparse.Namespace) -> Limits:
+    """The picture budget set by --max-side, --max-pixels and --max-aspect."""
+    return Limits(args.max_side, args.max_pixels, args.max_aspect)
+
+
+def encode(model: TextonAutoencoder, path: Path, lim: Limits,
            device: str = "cpu") -> tuple[Tensor, Encoded]:
     """(image (3, H, W) in [0, 1], ``model.encode(image)``) of the image at ``path``; images
-    with a side above ``max_side`` are downscaled first."""
+    beyond the budget ``lim`` are downscaled first."""
     import torch
 
     from neuraltex.imageio import load_image
 
-    image = load_image(path, max_side=max_side).to(device)
+    image = load_image(path, limits=lim).to(device)
     with torch.no_grad():
         return image, model.encode(image[None])
 
@@ -66,10 +73,12 @@ class Texture:
     masks: Tensor | None = None  # (n, h, w) softmax masks when read from an image
 
 
-def textons_of(model: TextonAutoencoder, path: Path, max_side: int,
+def textons_of(model: TextonAutoencoder, path: Path, lim: Limits,
                device: str = "cpu") -> Texture:
     """The textons of a texture given as an image (encoded by ``model``) or as a texton file
     (.json/.pt, checked against the model; it must hold one set)."""
+    import torch
+
     if path.suffix.lower() in TEXTON_FILES:
         from neuraltex.textons_file import load_textons
 
@@ -77,9 +86,18 @@ def textons_of(model: TextonAutoencoder, path: Path, max_side: int,
         check_fits(t, model, path)
         if t.batch_size != 1:
             raise InputError(f"{path}: holds {t.batch_size} texton sets; editing takes one")
-        return Texture(t.to(device=device), 256)
-    image, enc = encode(model, path, max_side, device)
+        return Texture(t.to(device=device, dtype=torch.float32), 256)
+    image, enc = encode(model, path, lim, device)
     return Texture(enc.textons, min(image.shape[-2:]), image, enc.masks[0])
+
+
+def check_textons_out(path: Path) -> Path:
+    """``path`` when texton files can be written there (.json/.pt, writable folder)."""
+    from neuraltex.fileio import check_writable
+
+    if path.suffix not in TEXTON_FILES:
+        raise InputError(f"{path}: textons are written as .json or .pt")
+    return check_writable(path)
 
 
 def check_fits(textons: Textons, model: TextonAutoencoder, source: Path) -> None:
@@ -89,19 +107,20 @@ def check_fits(textons: Textons, model: TextonAutoencoder, source: Path) -> None
                          f"model expects {model.generator.feature_channels - 2}")
 
 
-def output_size(size: list[int] | None, canvas: tuple[float, float],
-                default_short: int) -> tuple[int, int]:
+def output_size(size: list[int] | None, canvas: tuple[float, float], default_short: int,
+                lim: Limits | None = None) -> tuple[int, int]:
     """(H, W) from ``--size N`` (short side) or ``--size H W``, else the canvas (w, h) at
-    ``default_short``."""
-    if size:
-        if len(size) == 2:
-            return int(size[0]), int(size[1])
-        short = int(size[0])
-    else:
-        short = default_short
+    ``default_short``; InputError when the picture is beyond the budget ``lim``."""
+    lim = lim or Limits()
+    if size and len(size) > 2:
+        raise InputError(f"--size takes N (short side) or H W, got {len(size)} numbers")
+    if size and len(size) == 2:
+        return lim.check_output(size[0], size[1])
+    short = size[0] if size else default_short
     w, h = canvas
+    lim.check_output(h, w, "canvas")  # refuses extreme aspect ratios before scaling
     s = short / min(w, h)
-    return max(1, round(h * s)), max(1, round(w * s))
+    return lim.check_output(max(1, round(h * s)), max(1, round(w * s)))
 
 
 def decode(model: TextonAutoencoder, textons: Textons, size: tuple[int, int],
@@ -121,24 +140,37 @@ def save(image: Tensor, path: Path) -> None:
     print(f"wrote {path} ({image.shape[-1]}x{image.shape[-2]})")
 
 
-def add_model_options(p: argparse.ArgumentParser, size: bool = True) -> None:
-    """--checkpoint, --device, --seed, --max-side (and --size) of the model commands."""
+def add_model_options(p: argparse.ArgumentParser, size: bool = True,
+                      max_pixels: int = MAX_PIXELS) -> None:
+    """--checkpoint, --device, --seed, the picture budget (and --size) of the model commands."""
     p.add_argument("--checkpoint", help="model .safetensors (default: the shipped model)")
-    p.add_argument("--device", default="cpu", help="torch device (default: cpu)")
-    p.add_argument("--seed", type=int, help="random seed")
-    p.add_argument("--max-side", type=int, default=2048,
-                   help="larger inputs are downscaled to this side (default 2048)")
+    p.add_argument("--device", default="cpu", type=types.device,
+                   help="torch device: cpu (default), cuda, cuda:N or mps")
+    p.add_argument("--seed", type=types.seed, help=f"random seed in [0, {types.SEED_MAX}]")
+    add_limit_options(p, max_pixels)
     if size:
-        p.add_argument("--size", type=int, nargs="+", metavar="N",
-                       help="output size: N (short side) or H W")
+        p.add_argument("--size", type=types.integer(1, 2**16), nargs="+", metavar="N",
+                       help="output size: N (short side) or H W; at most --max-pixels pixels")
+
+
+def add_limit_options(p: argparse.ArgumentParser, max_pixels: int) -> None:
+    """--max-side, --max-pixels, --max-aspect: the picture budget (neuraltex.limits)."""
+    p.add_argument("--max-side", type=types.integer(1, 2**16), default=MAX_SIDE,
+                   help=f"inputs with a longer side are downscaled to it (default {MAX_SIDE})")
+    p.add_argument("--max-pixels", type=types.integer(1, 2**28), default=max_pixels,
+                   help="inputs with more pixels are downscaled, larger outputs refused "
+                   f"(default {max_pixels}, about {max_pixels / 1e6:.1f} MP: <= ~2 GB of memory)")
+    p.add_argument("--max-aspect", type=types.number(1, 1e4), default=MAX_ASPECT,
+                   help="pictures (in or out) with a longer side more than this many times "
+                   f"the shorter are refused (default {MAX_ASPECT:g})")
 
 
 def model_command(sub, name: str, func, help: str, source: str, output_help: str,
-                  size: bool = True) -> argparse.ArgumentParser:
+                  size: bool = True, max_pixels: int = MAX_PIXELS) -> argparse.ArgumentParser:
     """A subcommand that reads ``source``, runs the model and writes ``-o OUTPUT``."""
     p = sub.add_parser(name, help=help, description=func.__doc__)
     p.add_argument(source, type=Path, help=f"input {source}")
     p.add_argument("-o", "--output", type=Path, required=True, help=output_help)
-    add_model_options(p, size=size)
+    add_model_options(p, size=size, max_pixels=max_pixels)
     p.set_defaults(func=func)
     return p

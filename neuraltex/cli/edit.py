@@ -12,11 +12,14 @@ import argparse
 import math
 from pathlib import Path
 
+from neuraltex.cli import args as types
 from neuraltex.cli import common
-from neuraltex.cli.common import IMAGE_OUT, TEXTON_FILES
+from neuraltex.cli.common import IMAGE_OUT
 from neuraltex.errors import InputError
+from neuraltex.limits import MAX_COUNT, MAX_PATCHES
 
 FRAMES_OUT = ".gif, .mp4 or a picture pattern such as out_{i}.png"
+FPS = types.number(0, 1000, open_lo=True)
 
 
 def _load(args: argparse.Namespace):
@@ -25,13 +28,13 @@ def _load(args: argparse.Namespace):
 
 def _textons(args: argparse.Namespace, model, path: Path):
     """(textons of one set, default output short side) of an image or a texton file."""
-    t = common.textons_of(model, path, args.max_side, args.device)
+    t = common.textons_of(model, path, common.limits(args), args.device)
     return t.textons, t.short
 
 
 def _decode(args: argparse.Namespace, model, textons, default_short: int):
     """One texton set -> image (3, H, W) at --size (default: the source's short side)."""
-    size = common.output_size(args.size, textons.canvas, default_short)
+    size = common.output_size(args.size, textons.canvas, default_short, common.limits(args))
     return common.decode(model, textons, size, args.device)[0]
 
 
@@ -53,7 +56,7 @@ def _save_frames(frames: list, path: Path, fps: float) -> None:
     print(f"wrote {where} ({len(frames)} frames)")
 
 
-def _regions(path: Path | None, count: int, max_side: int):
+def _regions(path: Path | None, count: int, lim):
     """(H, W) int64 region labels from a colour-coded mask: colours sorted by RGB (black first)
     number the regions; there must be one colour per appearance texture."""
     import numpy as np
@@ -65,7 +68,7 @@ def _regions(path: Path | None, count: int, max_side: int):
         if count > 1:
             raise InputError("several appearance textures need --regions MASK")
         return None
-    rgb = (load_image(path, max_side=max_side) * 255).round().to(torch.int64)  # (3, H, W)
+    rgb = (load_image(path, limits=lim) * 255).round().to(torch.int64)  # (3, H, W)
     flat = rgb.flatten(1).T.numpy()
     colours, labels = np.unique(flat, axis=0, return_inverse=True)
     if len(colours) != count:
@@ -88,7 +91,7 @@ def cmd_transfer(args: argparse.Namespace) -> int:
     from neuraltex.imageio import check_output_path
 
     check_output_path(args.output)
-    regions = _regions(args.regions, len(args.appearance), args.max_side)
+    regions = _regions(args.regions, len(args.appearance), common.limits(args))
     model = _load(args)
     structure, short = _textons(args, model, args.structure)
     apps = [_textons(args, model, p)[0] for p in args.appearance]
@@ -102,8 +105,6 @@ def cmd_reshuffle(args: argparse.Namespace) -> int:
     from neuraltex.imageio import numbered
     from neuraltex.reshuffle import reshuffle
 
-    if args.count < 1:
-        raise InputError("--count must be at least 1")
     paths = numbered(args.output, args.count)
     model = _load(args)
     textons, short = _textons(args, model, args.image)
@@ -119,10 +120,6 @@ def cmd_interpolate(args: argparse.Namespace) -> int:
     from neuraltex.edit.interpolate import interpolate, interpolate_frames, interpolate_spatially
     from neuraltex.imageio import check_output_path, check_sequence_output
 
-    if args.frames is not None and args.frames < 2:
-        raise InputError("--frames must be at least 2")
-    if not 0 <= args.t <= 1:
-        raise InputError(f"--t must lie in [0, 1], got {args.t}")
     (check_sequence_output if args.frames else check_output_path)(args.output)
     model = _load(args)
     a, short = _textons(args, model, args.image)
@@ -143,8 +140,6 @@ def cmd_vary(args: argparse.Namespace) -> int:
     from neuraltex.edit.vary import vary
     from neuraltex.imageio import check_output_path
 
-    if args.appearance < 0 or args.shape < 0:
-        raise InputError("--appearance and --shape must be >= 0")
     check_output_path(args.output)
     model = _load(args)
     textons, short = _textons(args, model, args.image)
@@ -161,8 +156,8 @@ def cmd_edit(args: argparse.Namespace) -> int:
     from neuraltex.textons_file import save_textons
 
     check_output_path(args.output)
-    if args.textons_out and args.textons_out.suffix not in TEXTON_FILES:
-        raise InputError(f"{args.textons_out}: textons are written as .json or .pt")
+    if args.textons_out:
+        common.check_textons_out(args.textons_out)
     model = _load(args)
     textons, short = _textons(args, model, args.image)
     edited = apply_edit_list(textons, args.edits)
@@ -181,9 +176,9 @@ def cmd_propagate(args: argparse.Namespace) -> int:
     from neuraltex.imageio import check_output_path, load_image
 
     check_output_path(args.output)
-    edited = load_image(args.edited, max_side=args.max_side).to(args.device)
+    edited = load_image(args.edited, limits=common.limits(args)).to(args.device)
     model = _load(args)
-    original, enc = common.encode(model, args.image, args.max_side, args.device)
+    original, enc = common.encode(model, args.image, common.limits(args), args.device)
     if edited.shape != original.shape:
         raise InputError(f"{args.edited}: {edited.shape[2]}x{edited.shape[1]}, but the original "
                          f"is {original.shape[2]}x{original.shape[1]}")
@@ -199,8 +194,6 @@ def cmd_animate(args: argparse.Namespace) -> int:
     from neuraltex.edit.animation import animate
     from neuraltex.imageio import check_sequence_output
 
-    if args.frames < 1 or args.fps <= 0 or args.duration <= 0:
-        raise InputError("--frames, --fps and --duration must be positive")
     check_sequence_output(args.output)
     model = _load(args)
     textons, short = _textons(args, model, args.image)
@@ -218,18 +211,29 @@ def cmd_stylize(args: argparse.Namespace) -> int:
     from neuraltex.imageio import check_output_path, load_image
 
     check_output_path(args.output)
-    if args.scale <= 0 or not 0 <= args.overlap < 1:
-        raise InputError("need --scale > 0 and 0 <= --overlap < 1")
-    regions = _regions(args.regions, len(args.texture), args.max_side)
-    content = load_image(args.image, max_side=args.max_side).to(args.device)
+    regions = _regions(args.regions, len(args.texture), common.limits(args))
+    content = load_image(args.image, limits=common.limits(args)).to(args.device)
     model = _load(args)
     apps = [_textons(args, model, p)[0] for p in args.texture]
     patch = args.patch or model.config.image_size or 128
+    _check_patches(content.shape[-2:], patch, args.scale, args.overlap)
     textons = content_textons(model, content, patch, args.scale, args.overlap, args.seed or 0,
                               progress=_progress("patches"))
     out = _with_appearance(textons, apps, regions, args.mode, args.seed or 0)
     common.save(_decode(args, model, out, min(content.shape[-2:])), args.output)
     return 0
+
+
+def _check_patches(shape, patch: int, scale: float, overlap: float) -> None:
+    """InputError when stylize would encode more than MAX_PATCHES patches."""
+    from neuraltex.edit.stylize import patch_starts
+
+    side = max(4, round(scale * patch))
+    stride = max(1, round(side * (1 - overlap)))
+    n = len(patch_starts(shape[0], side, stride)) * len(patch_starts(shape[1], side, stride))
+    if n > MAX_PATCHES:
+        raise InputError(f"stylize: {n} patches (more than {MAX_PATCHES}); use a larger "
+                         "--scale, a smaller --overlap or a smaller image")
 
 
 def add_commands(sub) -> None:
@@ -243,20 +247,26 @@ def add_commands(sub) -> None:
 
     p = cmd(sub, "reshuffle", cmd_reshuffle, "diversify: permute texton appearances", "image",
             f"{img}; with --count > 1 a pattern such as out_{{i}}.png")
-    p.add_argument("--count", type=int, default=1, help="number of variations (default 1)")
+    p.add_argument("--count", type=types.integer(1, MAX_COUNT), default=1,
+                   help=f"number of variations, at most {MAX_COUNT} (default 1)")
 
     p = cmd(sub, "interpolate", cmd_interpolate, "blend two textures", "image",
             f"{img}; with --frames {FRAMES_OUT}")
     p.add_argument("other", type=Path, help="the texture at t = 1")
     g = p.add_mutually_exclusive_group()
-    g.add_argument("--t", type=float, default=0.5, help="blend weight in [0, 1] (default 0.5)")
-    g.add_argument("--frames", type=int, help="a sequence of N frames from t = 0 to 1")
+    g.add_argument("--t", type=types.number(0, 1), default=0.5,
+                   help="blend weight in [0, 1] (default 0.5)")
+    g.add_argument("--frames", type=types.integer(2, MAX_COUNT),
+                   help=f"a sequence of N frames from t = 0 to 1 (2 to {MAX_COUNT})")
     g.add_argument("--spatial", action="store_true", help="t from 0 (left) to 1 (right)")
-    p.add_argument("--fps", type=float, default=8, help="frames per second (default 8)")
+    p.add_argument("--fps", type=FPS, default=8, help="frames per second, 0 < fps <= 1000 "
+                   "(default 8)")
 
     p = cmd(sub, "vary", cmd_vary, "scale appearance / shape variations", "image", img)
-    p.add_argument("--appearance", type=float, default=1.0, help="lambda_f (default 1)")
-    p.add_argument("--shape", type=float, default=1.0, help="lambda_U (default 1)")
+    p.add_argument("--appearance", type=types.number(0, 100), default=1.0,
+                   help="lambda_f in [0, 100] (default 1)")
+    p.add_argument("--shape", type=types.number(0, 100), default=1.0,
+                   help="lambda_U in [0, 100] (default 1)")
 
     p = cmd(sub, "edit", cmd_edit, "move, scale, rotate, delete, duplicate textons", "image",
             img)
@@ -265,27 +275,36 @@ def add_commands(sub) -> None:
 
     p = cmd(sub, "propagate", cmd_propagate, "repeat an edit on similar textons", "image", img)
     p.add_argument("edited", type=Path, help="the image after the user's edit")
-    p.add_argument("--threshold", type=float, default=0.9,
-                   help="feature cosine similarity of targets (default 0.9)")
-    p.add_argument("--radius", type=float, default=3.0,
-                   help="edit kept within this Mahalanobis distance of the texton (default 3)")
+    p.add_argument("--threshold", type=types.number(-1, 1), default=0.9,
+                   help="feature cosine similarity of targets, in [-1, 1] (default 0.9)")
+    p.add_argument("--radius", type=types.number(0, 100, open_lo=True), default=3.0,
+                   help="edit kept within this Mahalanobis distance of the texton, in (0, 100] "
+                   "(default 3)")
 
     p = cmd(sub, "animate", cmd_animate, "animate a texture with a flow field", "image",
             FRAMES_OUT)
-    p.add_argument("--flow", choices=("shear", "vortex"), default="vortex")
-    p.add_argument("--frames", type=int, default=24, help="number of frames (default 24)")
-    p.add_argument("--fps", type=float, default=12, help="frames per second (default 12)")
-    p.add_argument("--duration", type=float, default=4.0, help="flow time covered (default 4)")
-    p.add_argument("--velocity", type=float, default=0.5, help="shear speed (default 0.5)")
-    p.add_argument("--omega", type=float, default=2 * math.pi / 4,
-                   help="vortex angular speed (default 2 pi / 4: one turn in 4)")
+    p.add_argument("--flow", choices=("shear", "vortex"), default="vortex",
+                   help="shear: a perturbed shear flow; vortex (default): a rotating flow")
+    p.add_argument("--frames", type=types.integer(1, MAX_COUNT), default=24,
+                   help=f"number of frames, 1 to {MAX_COUNT} (default 24)")
+    p.add_argument("--fps", type=FPS, default=12,
+                   help="frames per second, 0 < fps <= 1000 (default 12)")
+    p.add_argument("--duration", type=types.number(0, 1e3, open_lo=True), default=4.0,
+                   help="flow time covered, in (0, 1000] (default 4)")
+    p.add_argument("--velocity", type=types.number(-100, 100), default=0.5,
+                   help="shear speed in [-100, 100] (default 0.5)")
+    p.add_argument("--omega", type=types.number(-100, 100), default=2 * math.pi / 4,
+                   help="vortex angular speed in [-100, 100] (default 2 pi / 4: one turn in 4)")
 
     p = cmd(sub, "stylize", cmd_stylize, "a large image in the style of a texture", "image",
             img)
     p.add_argument("texture", type=Path, nargs="+", help="texture(s) giving the appearance")
-    p.add_argument("--scale", type=float, default=1.0, help="texton scale (default 1)")
-    p.add_argument("--patch", type=int, help="model input size (default: its training size)")
-    p.add_argument("--overlap", type=float, default=0.25, help="patch overlap (default 0.25)")
+    p.add_argument("--scale", type=types.number(0.125, 8), default=1.0,
+                   help="texton scale in [0.125, 8] (default 1)")
+    p.add_argument("--patch", type=types.integer(16, 1024),
+                   help="model input size, 16 to 1024 (default: its training size)")
+    p.add_argument("--overlap", type=types.number(0, 0.9), default=0.25,
+                   help="patch overlap in [0, 0.9] (default 0.25)")
     _mode_and_regions(p)
 
 

@@ -4,28 +4,29 @@ from __future__ import annotations
 
 import argparse
 
+from neuraltex.cli import args as types
 from neuraltex.cli import common
 from neuraltex.errors import InputError
+from neuraltex.limits import MAX_PIXELS_VECTORIZE
 
 
 def cmd_vectorize(args: argparse.Namespace) -> int:
     """Vectorize an image: one SVG element per texton (or segment), filled with the image's
     colours, drawn in compositing order over a background layer."""
-    from neuraltex.fileio import write_text_atomic
+    from neuraltex.fileio import check_writable, write_text_atomic
     from neuraltex.imageio import load_image
     from neuraltex.segments import segment_image
     from neuraltex.vectorize import VectorizeParams, ellipses, to_svg, vectorize
 
     if args.output.suffix != ".svg":
         raise InputError(f"{args.output}: must end in .svg")
-    if args.kinds < 1 or args.level <= 0:
-        raise InputError("--kinds must be >= 1 and --level > 0")
+    check_writable(args.output)
     if args.mode == "ellipse" and args.segmenter != "model":
         raise InputError("--mode ellipse needs the texton model (--segmenter model)")
     model = None
     if args.segmenter == "model":
         model = common.load(args.checkpoint, args.device, args.seed)
-    image = load_image(args.image, max_side=args.max_side).to(args.device)
+    image = load_image(args.image, limits=common.limits(args)).to(args.device)
     seg, textons = segment_image(image, args.segmenter, model, args.source,
                                  background=not args.keep_backdrop)
     params = VectorizeParams(gradient=not args.no_gradient, background=args.background,
@@ -47,7 +48,8 @@ def cmd_vectorize(args: argparse.Namespace) -> int:
 def add_commands(sub) -> None:
     """Register vectorize."""
     p = common.model_command(sub, "vectorize", cmd_vectorize, "image -> SVG of its textons",
-                             "image", "output .svg", size=False)
+                             "image", "output .svg", size=False,
+                             max_pixels=MAX_PIXELS_VECTORIZE)
     p.add_argument("--mode", choices=("regions", "ellipse"), default="regions",
                    help="regions (default): traced segment outlines; ellipse: the Gaussians")
     p.add_argument("--segmenter", default="model",
@@ -62,6 +64,7 @@ def add_commands(sub) -> None:
     p.add_argument("--keep-backdrop", action="store_true",
                    help="keep a segment that spans the whole image as an element (default: "
                    "it becomes the background layer)")
-    p.add_argument("--kinds", type=int, default=4, help="kind clusters (default 4)")
-    p.add_argument("--level", type=float, default=1.0,
-                   help="Mahalanobis level of the ellipses (--mode ellipse, default 1)")
+    p.add_argument("--kinds", type=types.integer(1, 256), default=4,
+                   help="kind clusters, 1 to 256 (default 4)")
+    p.add_argument("--level", type=types.number(0, 10, open_lo=True), default=1.0,
+                   help="Mahalanobis level of the ellipses, in (0, 10] (--mode ellipse, default 1)")

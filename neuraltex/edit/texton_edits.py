@@ -22,8 +22,11 @@ import torch
 from torch import Tensor
 
 from neuraltex.errors import InputError
+from neuraltex.limits import MAX_EDITS, MAX_TEXTONS, check_count
 from neuraltex.splatting import precision
 from neuraltex.textons import Textons
+
+MAX_EDIT_FILE_BYTES = 2**20
 
 
 def _one(t: Textons) -> None:
@@ -131,8 +134,8 @@ def apply_edit(t: Textons, edit: dict) -> Textons:
             return delete(t, mask)
         if op == "duplicate":
             return duplicate(t, mask, *edit.get("offset", (0.0, 0.0)))
-    except (KeyError, TypeError, ValueError, IndexError) as exc:
-        raise InputError(f"bad edit {json.dumps(edit)}: {exc}") from None
+    except (KeyError, TypeError, ValueError, IndexError, OverflowError, RuntimeError) as exc:
+        raise InputError(f"bad edit {json.dumps(edit)[:200]}: {exc}") from None
     raise InputError(f"unknown edit op {op!r} (move, scale, rotate, delete, duplicate)")
 
 
@@ -140,11 +143,21 @@ def apply_edit_list(t: Textons, edits) -> Textons:
     """Apply a list of edits, or the list stored in a JSON file."""
     if isinstance(edits, (str, Path)):
         try:
+            if Path(edits).stat().st_size > MAX_EDIT_FILE_BYTES:
+                raise InputError(f"{edits}: an edit list over {MAX_EDIT_FILE_BYTES} bytes")
             edits = json.loads(Path(edits).read_text(encoding="utf-8"))
         except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
             raise InputError(f"{edits}: cannot read edit list ({exc})") from None
+        except RecursionError:
+            raise InputError(f"{edits}: edit list nested too deeply") from None
     if not isinstance(edits, list):
         raise InputError("an edit list is a JSON list of edits")
-    for edit in edits:
+    check_count(len(edits), MAX_EDITS, "edits in the list")
+    for i, edit in enumerate(edits):
+        if not isinstance(edit, dict):
+            raise InputError(f"edit {i}: each edit is a JSON object, got {str(edit)[:40]}")
         t = apply_edit(t, edit)
+        check_count(t.num_textons, MAX_TEXTONS, f"textons after edit {i}")
+        if not all(torch.isfinite(x).all() for x in (t.mu, t.cov)):
+            raise InputError(f"edit {i} {json.dumps(edit)[:80]}: moves textons out of range")
     return t
