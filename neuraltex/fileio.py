@@ -49,7 +49,7 @@ def check_writable(path: str | os.PathLike) -> Path:
     from neuraltex.errors import InputError
 
     path = Path(path)
-    if not path.name or str(path) in (".", ".."):
+    if not path.name or str(path) in (".", "..") or "\0" in str(path):
         raise InputError(f"{str(path)!r}: not a file name")
     if len(os.fsencode(path.name)) > 255:
         raise InputError(f"{path.name[:40]}...: file name longer than 255 bytes")
@@ -60,7 +60,7 @@ def check_writable(path: str | os.PathLike) -> Path:
         while not folder.exists() and folder != folder.parent:
             folder = folder.parent
         writable = os.access(folder, os.W_OK | os.X_OK)
-    except OSError as exc:
+    except (OSError, ValueError) as exc:  # ValueError: a NUL byte in the name
         raise _unwritable(path, exc) from None
     if not folder.is_dir():
         raise InputError(f"{path}: {folder} is not a folder")
@@ -69,7 +69,7 @@ def check_writable(path: str | os.PathLike) -> Path:
     return path
 
 
-def _unwritable(path: Path, exc: OSError) -> Exception:
+def _unwritable(path: Path, exc: Exception) -> Exception:
     from neuraltex.errors import InputError, one_line
 
     return InputError(f"{path}: cannot write ({one_line(exc)})")

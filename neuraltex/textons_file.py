@@ -111,7 +111,8 @@ def validate_textons(t: Textons, source: str | os.PathLike = "textons") -> None:
     if ((a <= 0) | (a * d - b * c <= 0)).any():
         raise TextonFileError(f"{source}: 'cov' must be positive definite")
     norm = t.v.double().norm(dim=-1)
-    if ((norm - 1).abs() > 1e-3).any():
+    tol = max(1e-3, 4 * torch.finfo(t.dtype).eps)  # bfloat16 directions are ~1% off unit
+    if ((norm - 1).abs() > tol).any():
         raise TextonFileError(f"{source}: 'v' must hold unit vectors")
     if not all(MIN_CANVAS <= x <= MAX_CANVAS for x in t.canvas):  # NaN fails too
         raise TextonFileError(f"{source}: 'canvas' must be two numbers in "

@@ -1,0 +1,108 @@
+"""The reliability corpus (tests/corpus/, written by scripts/make_corpus.py): every ``neuraltex``
+subcommand over odd and hostile images, texton files, weights, edit lists, arguments and
+output paths, in-process. Each case must end as the corpus says: "ok" (exit 0, output written)
+or "error" (exit 2, exactly one ``neuraltex: error:`` line, no traceback, no file left in the
+output folder), within 60 s; the process's peak memory stays under 2 GB.
+
+About one case in six runs by default; ``pytest -m slow tests/test_corpus.py`` runs them all.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import json
+import os
+import resource
+import signal
+import time
+from pathlib import Path
+
+import pytest
+
+from neuraltex.cli import main
+
+CORPUS = Path(__file__).parent / "corpus"
+CASES = json.loads((CORPUS / "cases.json").read_text())
+TIME_CAP_S = 60
+MEMORY_CAP_MB = 2048
+SILENT = ("textons", "model-info")  # commands that write no file
+_peaks: dict[str, float] = {}
+
+
+def _params():
+    for i, case in enumerate(CASES):
+        marks = () if i % 6 == 0 else (pytest.mark.slow,)
+        yield pytest.param(case, id=case["id"], marks=marks)
+
+
+def _argv(argv: list[str], tmp: Path) -> list[str]:
+    out, ro, afile = tmp / "out", tmp / "ro", tmp / "afile"
+    out.mkdir()
+    ro.mkdir(mode=0o555)
+    afile.write_text("a file, not a folder")
+    subs = {"{c}": str(CORPUS), "{o}": str(out), "{ro}": str(ro), "{file}": str(afile)}
+    result = []
+    for a in argv:
+        for k, v in subs.items():
+            a = a.replace(k, v)
+        result.append(a)
+    return result
+
+
+class _Timeout(Exception):
+    pass
+
+
+def _run(argv: list[str]) -> tuple[int, str, str, float]:
+    """(exit code, stdout, stderr, seconds) of ``neuraltex argv`` in this process."""
+
+    def alarm(signum, frame):
+        raise _Timeout(f"over {TIME_CAP_S} s")
+
+    out, err = io.StringIO(), io.StringIO()
+    previous = signal.signal(signal.SIGALRM, alarm)
+    signal.alarm(TIME_CAP_S)
+    t0 = time.perf_counter()
+    try:
+        with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+            rc = main(argv)
+    finally:
+        signal.alarm(0)
+        signal.signal(signal.SIGALRM, previous)
+    return rc, out.getvalue(), err.getvalue(), time.perf_counter() - t0
+
+
+@pytest.mark.parametrize("case", _params())
+def test_case(case, tmp_path):
+    if any("{ro}" in a for a in case["argv"]) and os.geteuid() == 0:
+        pytest.skip("root can write into a read-only folder")
+    argv = _argv(case["argv"], tmp_path)
+    rc, out, err, seconds = _run(argv)
+    _peaks[case["id"]] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+    written = [p for p in (tmp_path / "out").rglob("*") if p.is_file()]
+    assert "Traceback" not in err and "pickled code ran" not in out, err
+    if case["expect"] == "error":
+        lines = err.strip().splitlines()
+        assert rc == 2, (rc, err)
+        assert len(lines) == 1 and lines[0].startswith("neuraltex: error:"), lines
+        assert not written, written
+    else:
+        assert rc == 0, err
+        assert written or case["argv"][0] in SILENT
+    assert seconds < TIME_CAP_S
+
+
+def test_peak_memory_under_cap():
+    """Runs after the cases (file order): the process's peak resident memory so far."""
+    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+    assert peak < MEMORY_CAP_MB, f"peak {peak:.0f} MB"
+
+
+def test_corpus_is_large_and_covers_every_subcommand():
+    from neuraltex.cli import build_parser
+
+    commands = {c["argv"][0] for c in CASES}
+    sub = next(a for a in build_parser()._actions if a.dest == "command")
+    assert len(CASES) >= 300
+    assert set(sub.choices) - {"fit"} <= commands
