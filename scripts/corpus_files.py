@@ -61,7 +61,7 @@ def images(d: Path) -> dict[str, str]:
     pil("wide8.png", Image.fromarray(_rgb(8, 64, 2)))  # aspect 8: the limit, accepted
     ramp = np.linspace(0, 255, 600, dtype=np.uint8)
     big = np.stack(np.broadcast_arrays(ramp[:, None], ramp[None, :], ramp[None, ::-1]), -1)
-    pil("big600.png", Image.fromarray(np.ascontiguousarray(big)))  # downscaled (tests use --max-side)
+    pil("big600.png", Image.fromarray(np.ascontiguousarray(big)))  # 600 x 600 smooth ramps
     pil("line3000x1.png", Image.fromarray(_rgb(1, 3000, 4)), "error")
     pil("line1x3000.png", Image.fromarray(_rgb(3000, 1, 5)), "error")
     pil("line300x1.png", Image.fromarray(_rgb(1, 300, 6)), "error")
