@@ -1,7 +1,9 @@
-"""TensorBoard scalars and image grids, plus PNG copies people can open without TensorBoard."""
+"""TensorBoard scalars and image grids (when tensorboard is installed), plus PNG copies people
+can open without TensorBoard."""
 
 from __future__ import annotations
 
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -18,10 +20,9 @@ class Logger:
         self.writer = None
         if enabled:
             self.run_dir.mkdir(parents=True, exist_ok=True)
-            from torch.utils.tensorboard import SummaryWriter
-
-            self.writer = SummaryWriter(str(self.run_dir / "tb"))
-            self.writer.add_text("lpips_backbone", backbone)
+            self.writer = _tensorboard(self.run_dir / "tb")
+            if self.writer is not None:
+                self.writer.add_text("lpips_backbone", backbone)
 
     def scalars(self, step: int, values: dict[str, float]) -> None:
         if self.writer is None:
@@ -32,10 +33,11 @@ class Logger:
 
     def images(self, step: int, images: torch.Tensor, out, rows: int = 4) -> None:
         """input | reconstruction | reshuffled | segmentation overlay with Gaussian ellipses."""
-        if self.writer is None:
+        if not self.enabled:
             return
         grid = grid_picture(images, out, rows)
-        self.writer.add_image("grid", torch.from_numpy(grid).permute(2, 0, 1), step)
+        if self.writer is not None:
+            self.writer.add_image("grid", torch.from_numpy(grid).permute(2, 0, 1), step)
         path = self.run_dir / "images" / f"step_{step:07d}.png"
         path.parent.mkdir(parents=True, exist_ok=True)
         with atomic_path(path) as tmp:
@@ -44,6 +46,18 @@ class Logger:
     def close(self) -> None:
         if self.writer is not None:
             self.writer.close()
+
+
+def _tensorboard(folder: Path):
+    """A TensorBoard writer, or None (with one note) when tensorboard is not installed: it is
+    an optional extra (pip install "neuraltex[tensorboard]"); the PNG grids are written anyway."""
+    try:
+        from torch.utils.tensorboard import SummaryWriter
+    except ImportError:
+        print("note: tensorboard is not installed; no scalar logs (pip install tensorboard)",
+              file=sys.stderr)
+        return None
+    return SummaryWriter(str(folder))
 
 
 def _u8(x: torch.Tensor) -> np.ndarray:

@@ -9,6 +9,8 @@ s) and the data of step s is fixed by s, so a resumed run continues exactly.
 from __future__ import annotations
 
 import os
+import signal
+import threading
 import time
 from pathlib import Path
 
@@ -24,11 +26,21 @@ from train.logging import Logger
 from train.loss_config import StepSettings
 from train.objective import Outputs
 from train.schedule import scheduled
-from train.setup import Parts, Progress, build, restore
+from train.setup import Parts, Progress, build, check_inputs, restore
+
+
+class Interrupted(KeyboardInterrupt):
+    """Ctrl-C during training, after the checkpoint of the last finished step was saved."""
+
+    def __init__(self, step: int, checkpoint: Path | None) -> None:
+        super().__init__(step)
+        self.step, self.checkpoint = step, checkpoint
 
 
 def run(cfg: DictConfig) -> dict[str, float]:
-    """Train as configured; returns the last step's logged numbers."""
+    """Train as configured; returns the last step's logged numbers. Ctrl-C saves a
+    checkpoint of the last finished step and raises :class:`Interrupted`."""
+    check_inputs(cfg.trainer)
     rank, world = _distributed()
     device = _device(cfg, rank)
     if cfg.trainer.threads:
@@ -45,24 +57,16 @@ def run(cfg: DictConfig) -> dict[str, float]:
     t0, done, logs = time.time(), progress.start, {}
     bar = tqdm(range(progress.start, T.max_steps), initial=progress.start, total=T.max_steps,
                disable=rank != 0, desc="train", dynamic_ncols=True)
-    for step in bar:
-        g = torch.Generator().manual_seed(int(cfg.seed) * 1_000_003 + rank * 7919 + step)
-        images, labels = _batch(next(data), cfg, parts, g)
-        settings = parts.loss.at(step, T.schedule_scale)
-        _set_lr(parts, T, step)
-        out, logs = train_step(parts, images, labels, settings, step, g)
-        done = step + 1
-        out_of_time = _out_of_time(T.max_minutes, t0, world, device)
-        bar.set_postfix(_progress(logs))
-        if done % T.log_every == 0 or done == T.max_steps:
-            logger.scalars(done, logs | {f"w/{k}": v for k, v in settings.scalars().items()}
-                           | {"w/lr": parts.opt_g.param_groups[0]["lr"]})
-        if done % T.image_every == 0 or done == T.max_steps:
-            logger.images(done, images, out)
-        if rank == 0 and (done % T.ckpt_every == 0 or done == T.max_steps or out_of_time):
-            _checkpoint(parts, cfg, done, progress.wall_before + time.time() - t0, progress)
-        if out_of_time:  # every rank measures its own clock; rank 0 decides for all
-            break
+    ctrl_c = _CtrlC()
+    try:
+        done, logs = _steps(cfg, parts, progress, data, logger, bar, (rank, world), t0, ctrl_c)
+    finally:
+        ctrl_c.restore()
+    if ctrl_c.pressed:  # the last finished step was checkpointed
+        bar.close()
+        logger.close()
+        saved = Path(cfg.run_dir) / "last.pt" if rank == 0 and done > progress.start else None
+        raise Interrupted(done, saved)
     if rank == 0 and T.export:
         export(parts, cfg, dataset, done, progress.wall_before + time.time() - t0, world,
                logger.backbone, progress)
@@ -70,6 +74,53 @@ def run(cfg: DictConfig) -> dict[str, float]:
     if world > 1:
         dist.barrier()
     return logs
+
+
+def _steps(cfg: DictConfig, parts: Parts, progress: Progress, data, logger: Logger, bar,
+           ranks: tuple[int, int], t0: float, ctrl_c: _CtrlC) -> tuple[int, dict[str, float]]:
+    """The training steps of ``bar`` until the end, the time limit or Ctrl-C; returns (steps
+    done, the last step's logs)."""
+    (rank, world), device = ranks, parts.device
+    T, done, logs = cfg.trainer, progress.start, {}
+    for step in bar:
+        g = torch.Generator().manual_seed(int(cfg.seed) * 1_000_003 + rank * 7919 + step)
+        images, labels = _batch(next(data), cfg, parts, g)
+        settings = parts.loss.at(step, T.schedule_scale)
+        _set_lr(parts, T, step)
+        out, logs = train_step(parts, images, labels, settings, step, g)
+        done = step + 1
+        stop = _should_stop(T.max_minutes, t0, world, device, ctrl_c.pressed)
+        bar.set_postfix(_progress(logs))
+        if done % T.log_every == 0 or done == T.max_steps:
+            logger.scalars(done, logs | {f"w/{k}": v for k, v in settings.scalars().items()}
+                           | {"w/lr": parts.opt_g.param_groups[0]["lr"]})
+        if done % T.image_every == 0 or done == T.max_steps:
+            logger.images(done, images, out)
+        if rank == 0 and (done % T.ckpt_every == 0 or done == T.max_steps or stop):
+            _checkpoint(parts, cfg, done, progress.wall_before + time.time() - t0, progress)
+        if stop:  # every rank measures its own clock; rank 0 decides for all
+            break
+    return done, logs
+
+
+class _CtrlC:
+    """The first Ctrl-C (SIGINT) only sets ``pressed``: the loop finishes its step, saves a
+    checkpoint and stops; a second one interrupts at once."""
+
+    def __init__(self) -> None:
+        self.pressed = False
+        self.previous = signal.getsignal(signal.SIGINT)
+        self.installed = threading.current_thread() is threading.main_thread()
+        if self.installed:
+            signal.signal(signal.SIGINT, self._press)
+
+    def _press(self, signum, frame) -> None:
+        self.pressed = True
+        signal.signal(signal.SIGINT, self.previous)
+
+    def restore(self) -> None:
+        if self.installed:
+            signal.signal(signal.SIGINT, self.previous)
 
 
 def train_step(parts: Parts, images: torch.Tensor, labels: torch.Tensor | None,
@@ -147,13 +198,13 @@ def _progress(logs: dict[str, float]) -> dict[str, str]:
     return out
 
 
-def _out_of_time(max_minutes, t0: float, world: int, device) -> bool:
-    """``trainer.max_minutes`` reached (rank 0's clock decides for every rank)."""
-    if not max_minutes:
-        return False
-    flag = torch.tensor([float(time.time() - t0 > 60 * max_minutes)], device=device)
-    if world > 1:
-        dist.broadcast(flag, src=0)
+def _should_stop(max_minutes, t0: float, world: int, device, pressed: bool) -> bool:
+    """``trainer.max_minutes`` reached or Ctrl-C pressed (rank 0 decides for every rank)."""
+    late = bool(max_minutes) and time.time() - t0 > 60 * max_minutes
+    if world == 1:
+        return late or pressed
+    flag = torch.tensor([float(late or pressed)], device=device)
+    dist.broadcast(flag, src=0)
     return bool(flag.item())
 
 

@@ -11,6 +11,7 @@ from omegaconf import DictConfig, OmegaConf
 from torch.nn.parallel import DistributedDataParallel as DDP
 
 from neuraltex.checkpoint import load_exported_model, load_training_checkpoint, set_rng_state
+from neuraltex.errors import InputError
 from neuraltex.model import TextonAutoencoder, build_model
 from neuraltex.model_config import ModelConfig
 from train.loss_config import LossConfig
@@ -65,6 +66,22 @@ def build(cfg: DictConfig, device: torch.device, world: int = 1) -> Parts:
     wrap = (lambda m: DDP(m, find_unused_parameters=True)) if world > 1 else (lambda m: m)
     return Parts(model, critics, gen, wrap(gen), wrap(critics), opt_g, opt_d, loss, device,
                  amp=bool(T.amp) and device.type == "cuda")
+
+
+def check_inputs(T: DictConfig) -> None:
+    """InputError naming the missing file, and the stage that makes it, when a file the run
+    starts from (``trainer.init_from``, ``trainer.init_parts``, ``trainer.resume``) is absent,
+    before anything is built."""
+    paths = [("trainer.init_from", T.init_from), *((f"trainer.init_parts.{k}", v)
+                                                    for k, v in (T.init_parts or {}).items())]
+    if T.resume and T.resume != "auto":
+        paths.append(("trainer.resume", T.resume))
+    for key, path in paths:
+        if path and not Path(path).is_file():
+            stage = Path(path).parent.name
+            known = (Path(__file__).parent / "configs" / "experiment" / f"{stage}.yaml").exists()
+            hint = f"; train that stage first: python -m train experiment={stage}" if known else ""
+            raise InputError(f"{key}: {path} does not exist{hint}")
 
 
 def restore(parts: Parts, T: DictConfig, run_dir: Path) -> Progress:
