@@ -14,6 +14,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
@@ -121,11 +122,12 @@ def model_segmenter(checkpoint: str, device: str = "cpu", labels: str = "masks")
     import torch
     import torch.nn.functional as F
 
-    from neuraltex.model import load_model
+    from neuraltex.model import DEFAULT_MODEL, load_model
     from neuraltex.splatting import opacity_maps
 
-    if not checkpoint:
-        raise InputError("--method model needs --checkpoint PATH")
+    checkpoint = checkpoint or DEFAULT_MODEL  # no --checkpoint: the shipped default model
+    if not Path(checkpoint).exists():
+        raise InputError(f"--method model: no model at {checkpoint}; pass --checkpoint PATH")
     if labels not in ("masks", "splats"):
         raise ValueError(f"labels must be 'masks' or 'splats', got {labels!r}")
     model = load_model(checkpoint, device)

@@ -42,8 +42,7 @@ class LPIPS(nn.Module):
                 f"cache ({torch.hub.get_dir()}/checkpoints); use backbone=auto or random")
         use_pretrained = backbone == "pretrained" or (backbone == "auto" and cached is not None)
         if backbone == "auto" and not use_pretrained:
-            warnings.warn("LPIPS: no pretrained AlexNet weights in the torch hub cache; using a "
-                          "randomly initialized trunk (backbone=random)", stacklevel=2)
+            _warn_random_trunk()
         self.backbone_used = "pretrained" if use_pretrained else "random"
         self.net = copy.deepcopy(_lpips_network(use_pretrained))
 
@@ -53,6 +52,13 @@ class LPIPS(nn.Module):
 
     def forward(self, x: torch.Tensor, y: torch.Tensor) -> torch.Tensor:
         return self.net(x * 2 - 1, y * 2 - 1).flatten()  # lpips expects [-1, 1]
+
+
+@functools.lru_cache(maxsize=1)
+def _warn_random_trunk() -> None:
+    """The fallback is said once per process, not once per loss built."""
+    warnings.warn("LPIPS: no pretrained AlexNet weights in the torch hub cache; using a "
+                  "randomly initialized trunk (backbone=random)", stacklevel=4)
 
 
 @functools.lru_cache(maxsize=2)

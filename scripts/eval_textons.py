@@ -41,7 +41,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help=f"comma list of {', '.join([*METHODS, 'model'])} or 'all' baselines")
     p.add_argument("--param", type=float, default=None,
                    help="main parameter value (only with a single baseline method)")
-    p.add_argument("--checkpoint", default=None, help="model checkpoint for --method model")
+    p.add_argument("--checkpoint", default=None,
+                   help="model for --method model (default: the shipped model)")
     p.add_argument("--tune", action="store_true",
                    help="tune each baseline's main parameter on the validation split first")
     p.add_argument("--split", choices=("benchmark", "validation"), default="benchmark")

@@ -63,9 +63,19 @@ def build(cfg: DictConfig, device: torch.device, world: int = 1) -> Parts:
     trainable = [p for p in model.parameters() if p.requires_grad]
     opt_g = torch.optim.Adam(trainable, lr=T.lr, betas=tuple(T.betas))
     opt_d = torch.optim.Adam(critics.parameters(), lr=T.d_lr, betas=tuple(T.betas))
-    wrap = (lambda m: DDP(m, find_unused_parameters=True)) if world > 1 else (lambda m: m)
+    wrap = _ddp if world > 1 else (lambda m: m)
     return Parts(model, critics, gen, wrap(gen), wrap(critics), opt_g, opt_d, loss, device,
                  amp=bool(T.amp) and device.type == "cuda")
+
+
+def _ddp(module: torch.nn.Module) -> DDP:
+    """DDP that tolerates parameters a step leaves unused (the critics in the segmenter
+    warm-up, the GAN heads when a term is off); torch's per-rank note that a step used them
+    all after all is expected here and silenced."""
+    import warnings
+
+    warnings.filterwarnings("ignore", message=".*find_unused_parameters=True.*")
+    return DDP(module, find_unused_parameters=True)
 
 
 def check_inputs(T: DictConfig) -> None:
