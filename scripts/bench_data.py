@@ -5,7 +5,7 @@
 
 Prints images/s after a warm-up batch (worker start-up is not counted), and the CPU
 time per image over all processes: on a shared machine the wall-clock rate depends on
-what else runs, the CPU cost does not. The issue-3 target is >= 100 images/s at
+what else runs, the CPU cost does not. The target is >= 100 images/s at
 128 px on 2 cores.
 """
 
