@@ -66,3 +66,21 @@ def test_installed_wheel_runs_from_another_folder(wheel, tmp_path):
     assert (work / "r1" / "last.pt").is_file() and (work / "r1" / "model.safetensors").is_file()
     help_text = run(py, "-m", "train", "--help")
     assert len(help_text.splitlines()) < 30 and "experiment" in help_text
+
+
+def test_cpu_only_use_never_touches_cuda(tmp_path, capsys):
+    """What a CPU-only install runs: the CLI on its default device never initializes CUDA."""
+    import numpy as np
+    import torch
+    from PIL import Image
+
+    from neuraltex.cli import main
+
+    Image.fromarray((np.random.default_rng(0).random((24, 24, 3)) * 255).astype(np.uint8)).save(
+        tmp_path / "a.png")
+    assert main(["reconstruct", str(tmp_path / "a.png"), "-o", str(tmp_path / "r.png")]) == 0
+    assert not torch.cuda.is_initialized()
+    if not torch.cuda.is_available():
+        assert main(["reconstruct", str(tmp_path / "a.png"), "-o", str(tmp_path / "r.png"),
+                     "--device", "cuda"]) == 2
+        assert capsys.readouterr().err.strip().count("\n") == 0

@@ -61,3 +61,15 @@ def test_help_is_short_and_lists_the_groups(tmp_path):
     out = _train(tmp_path, "--help")
     assert out.returncode == 0 and len(out.stdout.splitlines()) < 30
     assert "experiment: default, default_finetune, default_segmenter" in out.stdout
+
+
+def test_training_logs_pictures_without_tensorboard(tmp_path, monkeypatch, capsys):
+    import sys
+
+    from train.logging import Logger
+
+    monkeypatch.setitem(sys.modules, "torch.utils.tensorboard", None)  # import fails
+    logger = Logger(tmp_path, enabled=True)
+    assert logger.writer is None and "tensorboard is not installed" in capsys.readouterr().err
+    logger.scalars(1, {"recon": 0.5})  # a no-op, not an error
+    logger.close()
