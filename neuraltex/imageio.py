@@ -24,7 +24,7 @@ from neuraltex.fileio import atomic_path, check_writable
 from neuraltex.limits import MAX_SIDE, Limits
 
 WRITE_FORMATS = {".png": "PNG", ".jpg": "JPEG", ".jpeg": "JPEG", ".webp": "WEBP"}
-MAX_DECODE_PIXELS = 16384 * 16384  # refuse to even decode beyond this (decompression bombs)
+MAX_DECODE_PIXELS = 100_000_000  # refuse to even decode beyond this (decompression bombs)
 
 
 def _to_rgb(im: Image.Image) -> np.ndarray:

@@ -71,6 +71,8 @@ def images(d: Path) -> dict[str, str]:
         "claims65535x1.png": _png_with_size(65535, 1),
         "claims65535x65535.png": _png_with_size(65535, 65535),
         "claims20000x20000.png": _png_with_size(20000, 20000),
+        "claims12000x12000.png": _png_with_size(12000, 12000),
+        "claims9000x9000.png": _png_with_size(9000, 9000),
         "truncated.png": raw[: len(raw) // 2],
         "header_only.png": raw[:33],
         "empty.png": b"",

@@ -4,7 +4,8 @@ subcommand (images, texton files, model weights, edit lists, arguments, output p
 outputs written) or "error" (exit 2, one line on stderr, no output file left). tests/test_corpus.py
 runs every case in-process under a time and memory cap.
 
-    python scripts/make_corpus.py            # rewrites tests/corpus/ (deterministic)
+    python scripts/make_corpus.py   # rewrites tests/corpus/ (same content; safetensors
+                                    # headers may list their keys in another order)
 
 Placeholders in the command lines: {c} the corpus folder, {o} an empty output folder per case,
 {ro} a read-only folder, {file} a regular file. Each new input class found later goes here.
