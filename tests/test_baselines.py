@@ -52,7 +52,8 @@ def test_bad_method_and_model_hook():
     with pytest.raises(InputError):
         get_segmenter("nope")
     with pytest.raises(InputError):
-        get_segmenter("model")  # no checkpoint
+        get_segmenter("model", checkpoint="no/such/model.safetensors")
+    assert callable(get_segmenter("model"))  # no checkpoint: the shipped default model
     with pytest.raises(ValueError):
         get_segmenter("grid")(np.zeros((8, 8)))
 
