@@ -73,5 +73,6 @@ def test_eval_script_end_to_end(tmp_path, capsys):
     for row in ("discs (easy)", "leaves (hard)", "**overall**", "k=5", "cells=12"):
         assert row in text
     assert eval_textons.main(["--method", "nope"]) == 2
-    assert eval_textons.main(["--method", "model"]) == 2
+    assert eval_textons.main(["--method", "model", "--limit", "1", "--checkpoint",
+                              str(tmp_path / "none.safetensors")]) == 2
     assert "error" in capsys.readouterr().err
