@@ -7,8 +7,7 @@ from is a choice per image (``neuraltex fit --segmenter``):
   (each fine superpixel takes the E_s label most of its pixels have: image-guided refinement);
 - ``felzenszwalb`` / ``slic`` / ``kmeans``: classical segments at full resolution (k-means
   colour clusters are split into connected components, so each texton is one region);
-- ``auto``: Felzenszwalb and SLIC at the same segment count; the one whose segments, painted
-  with their mean colours, reconstruct the image better (PSNR) is used, and reported.
+(``neuraltex.fit`` adds ``auto``, which picks one of these per image by a measured criterion.)
 
 The segment count adapts to the image: Felzenszwalb's scale grows until at most
 ``max_segments`` remain, so dense textures (gravel) get hundreds of textons, not a fixed 100.
@@ -16,39 +15,31 @@ The segment count adapts to the image: Felzenszwalb's scale grows until at most
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 import torch
 import torch.nn.functional as F
 
-METHODS = ("auto", "model", "felzenszwalb", "slic", "kmeans")
+METHODS = ("model", "felzenszwalb", "slic", "kmeans")
 MAX_SEGMENTS = 400  # default cap on textons per image
 _MIN_AREA = 12      # pixels per segment at 256 x 256, scaled with the image area
 
 
-def segment_labels(image: torch.Tensor, method: str = "auto", *, model=None,
-                   max_segments: int = MAX_SEGMENTS) -> tuple[np.ndarray, str]:
-    """Segment labels of an image (3, H, W) in [0, 1] -> ((H, W) int64 in 0..K-1, the method
-    used; for ``auto``, the method it picked)."""
+def segment_labels(image: torch.Tensor, method: str, *, model=None,
+                   max_segments: int = MAX_SEGMENTS, count: int | None = None) -> np.ndarray:
+    """Segment labels of an image (3, H, W) in [0, 1] -> (H, W) int64 in 0..K-1. ``count``:
+    the number of segments SLIC aims at (default: half of ``max_segments``)."""
     if method not in METHODS:
         raise ValueError(f"segmenter must be one of {METHODS}, got {method!r}")
     arr = image.permute(1, 2, 0).cpu().numpy().astype(np.float64)  # (H, W, 3)
-    if method == "auto":
-        felz = felzenszwalb_labels(arr, max_segments)
-        slic = slic_labels(arr, int(felz.max()) + 1)
-        scores = {"felzenszwalb": mean_colour_psnr(felz, arr), "slic": mean_colour_psnr(slic, arr)}
-        best = max(scores, key=scores.get)
-        return (felz if best == "felzenszwalb" else slic), best
     if method == "model":
         if model is None:
             raise ValueError("segmenter 'model' needs the model")
-        return model_labels(model, image, max_segments), method
+        return model_labels(model, image, max_segments)
     if method == "felzenszwalb":
-        return felzenszwalb_labels(arr, max_segments), method
+        return felzenszwalb_labels(arr, max_segments)
     if method == "slic":
-        return slic_labels(arr, max_segments // 2), method
-    return kmeans_labels(arr, max_segments), method
+        return slic_labels(arr, min(max_segments, count or max_segments // 2))
+    return kmeans_labels(arr, max_segments)
 
 
 def felzenszwalb_labels(arr: np.ndarray, max_segments: int) -> np.ndarray:
@@ -120,18 +111,6 @@ def soft_masks(labels: np.ndarray, softness: int = 1) -> torch.Tensor:
         m = F.avg_pool2d(m, 2 * softness + 1, stride=1, padding=softness,
                          count_include_pad=False)
     return m / m.sum(1, keepdim=True).clamp_min(1e-8)
-
-
-def mean_colour_psnr(labels: np.ndarray, arr: np.ndarray) -> float:
-    """PSNR of the image painted with each segment's mean colour (the masks' upper bound for a
-    flat-colour decoder)."""
-    flat = labels.ravel()
-    K = flat.max() + 1
-    area = np.bincount(flat, minlength=K).clip(1)
-    px = arr.reshape(-1, arr.shape[-1])
-    mean = np.stack([np.bincount(flat, px[:, c], K) for c in range(px.shape[1])], 1) / area[:, None]
-    mse = float(((mean[flat] - px) ** 2).mean())
-    return 10 * math.log10(1 / max(mse, 1e-12))
 
 
 def _dense(labels: np.ndarray) -> np.ndarray:

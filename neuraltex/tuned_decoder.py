@@ -49,6 +49,17 @@ def tuned_model(model, generator: dict[str, Tensor]):
     return tuned.eval()
 
 
+def blended_model(a, b, t: float):
+    """The tuned model ``a`` with G's parameters blended towards ``b``'s: (1 - t) a + t b
+    (both tuned from the same base, so their weights interpolate)."""
+    out = copy.deepcopy(a)
+    with torch.no_grad():
+        for (_, p), (_, q) in zip(out.generator.named_parameters(),
+                                  b.generator.named_parameters(), strict=True):
+            p.lerp_(q.to(p), t)
+    return out
+
+
 def with_offsets(textons: Textons, offsets: Tensor | None = None) -> Textons:
     """Textons of the base model (f: C_a channels) -> the tuned layout [f_a, d]; ``offsets``
     (B, K, 3) default to 0 (the texton keeps the colour G gives it)."""

@@ -24,6 +24,7 @@ if TYPE_CHECKING:
 
 IMAGE_OUT = ".png/.jpg/.webp"
 TEXTON_FILES = (".json", ".pt")
+TEXTURE_FILE = ".ntex"  # a tuned texture (neuraltex fit): textons + its own decoder
 
 
 def load(checkpoint: str | Path | None, device: str = "cpu",
@@ -64,12 +65,22 @@ class Texture:
     short: int  # default output short side: the image's, or 256 for a texton file
     image: Tensor | None = None  # (3, H, W) when read from an image
     masks: Tensor | None = None  # (n, h, w) softmax masks when read from an image
+    decoder: TextonAutoencoder | None = None  # the tuned model of a texture file
+    labels: object = None  # (H, W) int64 segments of a texture file (numpy)
 
 
 def textons_of(model: TextonAutoencoder, path: Path, max_side: int,
                device: str = "cpu") -> Texture:
-    """The textons of a texture given as an image (encoded by ``model``) or as a texton file
-    (.json/.pt, checked against the model; it must hold one set)."""
+    """The textons of a texture given as an image (encoded by ``model``), a texton file
+    (.json/.pt, checked against the model; it must hold one set) or a texture file (.ntex,
+    tuned from ``model`` by ``neuraltex fit``; it brings its own decoder)."""
+    if path.suffix.lower() == TEXTURE_FILE:
+        from neuraltex.texture_file import load_texture
+        from neuraltex.tuned_decoder import tuned_model
+
+        tex = load_texture(path, model)
+        return Texture(tex.textons.to(device=device), min(tex.header["size"]),
+                       decoder=tuned_model(model, tex.generator).to(device), labels=tex.labels)
     if path.suffix.lower() in TEXTON_FILES:
         from neuraltex.textons_file import load_textons
 
@@ -80,6 +91,25 @@ def textons_of(model: TextonAutoencoder, path: Path, max_side: int,
         return Texture(t.to(device=device), 256)
     image, enc = encode(model, path, max_side, device)
     return Texture(enc.textons, min(image.shape[-2:]), image, enc.masks[0])
+
+
+def decoder_for(model: TextonAutoencoder, *textures: Texture,
+                t: float | None = None) -> tuple[TextonAutoencoder, list[Textons]]:
+    """The model that decodes a combination of ``textures`` and their textons in its feature
+    layout. Without texture files: ``model`` and the textons as they are. Otherwise the tuned
+    decoder of the first texture file (with ``t``, the first two tuned decoders blended in
+    weight space, (1 - t) G_a + t G_b, as they share the base), and textons of plain textures
+    get zero colour offsets (:func:`neuraltex.tuned_decoder.with_offsets`)."""
+    from neuraltex.tuned_decoder import blended_model, with_offsets
+
+    tuned = [tex for tex in textures if tex.decoder is not None]
+    if not tuned:
+        return model, [tex.textons for tex in textures]
+    decoder = tuned[0].decoder
+    if t is not None and len(tuned) > 1:
+        decoder = blended_model(tuned[0].decoder, tuned[1].decoder, t)
+    return decoder, [tex.textons if tex.decoder is not None else with_offsets(tex.textons)
+                     for tex in textures]
 
 
 def check_fits(textons: Textons, model: TextonAutoencoder, source: Path) -> None:
