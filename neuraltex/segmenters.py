@@ -47,7 +47,7 @@ def felzenszwalb_labels(arr: np.ndarray, max_segments: int) -> np.ndarray:
     from skimage.segmentation import felzenszwalb
 
     area = arr.shape[0] * arr.shape[1] / 65536  # relative to 256 x 256
-    scale, min_size = 100.0 * area, max(4, round(_MIN_AREA * area))
+    scale, min_size = 100.0, max(_MIN_AREA, round(_MIN_AREA * area))
     for _ in range(12):
         labels = felzenszwalb(arr, scale=scale, sigma=0.8, min_size=min_size)
         if labels.max() + 1 <= max_segments:
@@ -73,6 +73,7 @@ def kmeans_labels(arr: np.ndarray, max_segments: int, k: int = 8, seed: int = 0)
     lab = rgb2lab(arr).reshape(-1, 3)
     rng = np.random.default_rng(seed)
     sample = lab[rng.choice(len(lab), min(len(lab), 4096), replace=False)]
+    k = min(k, len(np.unique(sample.round(3), axis=0)))  # no more clusters than colours
     centres, _ = kmeans2(sample, k, minit="++", seed=seed)
     colour = ((lab[:, None] - centres[None]) ** 2).sum(-1).argmin(1).reshape(arr.shape[:2])
     regions = label(colour, background=-1, connectivity=1)
