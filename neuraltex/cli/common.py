@@ -95,21 +95,11 @@ def textons_of(model: TextonAutoencoder, path: Path, max_side: int,
 
 def decoder_for(model: TextonAutoencoder, *textures: Texture,
                 t: float | None = None) -> tuple[TextonAutoencoder, list[Textons]]:
-    """The model that decodes a combination of ``textures`` and their textons in its feature
-    layout. Without texture files: ``model`` and the textons as they are. Otherwise the tuned
-    decoder of the first texture file (with ``t``, the first two tuned decoders blended in
-    weight space, (1 - t) G_a + t G_b, as they share the base), and textons of plain textures
-    get zero colour offsets (:func:`neuraltex.tuned_decoder.with_offsets`)."""
-    from neuraltex.tuned_decoder import blended_model, with_offsets
+    """The model that decodes a combination of ``textures`` (the first texture file's tuned
+    decoder, if any) and their textons in its layout (:func:`neuraltex.tuned_decoder.combine`)."""
+    from neuraltex.tuned_decoder import combine
 
-    tuned = [tex for tex in textures if tex.decoder is not None]
-    if not tuned:
-        return model, [tex.textons for tex in textures]
-    decoder = tuned[0].decoder
-    if t is not None and len(tuned) > 1:
-        decoder = blended_model(tuned[0].decoder, tuned[1].decoder, t)
-    return decoder, [tex.textons if tex.decoder is not None else with_offsets(tex.textons)
-                     for tex in textures]
+    return combine(model, [(tex.textons, tex.decoder) for tex in textures], t)
 
 
 def check_fits(textons: Textons, model: TextonAutoencoder, source: Path) -> None:
