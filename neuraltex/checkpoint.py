@@ -98,7 +98,7 @@ def export_model(path: str | os.PathLike, state_dict: dict[str, torch.Tensor],
     meta = {"format": EXPORT_FORMAT, "version": str(VERSION),
             "model_config": json.dumps(model_config.to_dict(), sort_keys=True),
             "info": json.dumps(info or {}, sort_keys=True),
-            "sha256": _tensor_digest(tensors)}
+            "sha256": tensor_digest(tensors)}
     with atomic_path(path) as tmp:
         save_file(tensors, str(tmp), metadata=meta)
 
@@ -120,7 +120,7 @@ def load_exported_model(path: str | os.PathLike) -> tuple[dict[str, torch.Tensor
     if meta.get("format") != EXPORT_FORMAT:
         raise CheckpointError(f"{path}: not a neuraltex model export")
     _check_version(int(meta["version"]) if meta.get("version", "").isdigit() else None, path)
-    if meta.get("sha256") != _tensor_digest(tensors):
+    if meta.get("sha256") != tensor_digest(tensors):
         raise CheckpointError(f"{path}: weights do not match their recorded checksum "
                               "(file modified or corrupted)")
     return (tensors, *_header(meta, path))
@@ -188,10 +188,11 @@ def _sub(d: Any, key: str) -> dict:
     return value if isinstance(value, dict) else {}
 
 
-def _tensor_digest(tensors: dict[str, torch.Tensor]) -> str:
-    h = hashlib.sha256()
+def tensor_digest(tensors: dict[str, torch.Tensor], prefix: bytes = b"") -> str:
+    """SHA-256 (hex) of named tensors (names, dtypes, shapes, bytes), after ``prefix``."""
+    h = hashlib.sha256(prefix)
     for name in sorted(tensors):
-        t = tensors[name].contiguous()
+        t = tensors[name].detach().cpu().contiguous()
         h.update(f"{name}|{t.dtype}|{tuple(t.shape)}|".encode())
         h.update(t.reshape(-1).view(torch.uint8).numpy().tobytes() if t.numel() else b"")
     return h.hexdigest()

@@ -30,10 +30,12 @@ import torch.nn.functional as F
 from torch import Tensor, nn
 
 from neuraltex.estimation import estimate_textons, painter_order
-from neuraltex.segmenters import MAX_SEGMENTS, segment_labels, soft_masks
+from neuraltex.segmenters import MAX_SEGMENTS, METHODS, segment_labels, soft_masks
 from neuraltex.splatting import splat
 from neuraltex.textons import Textons
 from neuraltex.tuned_decoder import ColourOffsetGenerator
+
+SEGMENTERS = ("auto", *METHODS)
 
 
 @dataclass
@@ -41,12 +43,14 @@ class FitSettings:
     segmenter: str = "auto"
     seconds: float | None = 45.0  # wall-time budget of the tuning loop (None: steps only)
     steps: int | None = None      # step budget (reproducible for a seed); None: seconds only
-    crop: int = 128               # side of the random training crops, pixels
+    crop: int = 64                # side of the random training crops, pixels
     lr: float = 2e-3              # G
     lr_features: float = 2e-2     # f_a
-    lr_offsets: float = 1e-2      # d, the colour offsets (neuraltex.tuned_decoder)
+    lr_offsets: float = 2e-2      # d, the colour offsets (neuraltex.tuned_decoder)
     max_textons: int = MAX_SEGMENTS
-    dihedral: bool = True         # random flips / transposes of image and textons
+    dihedral: bool = False        # random flips / transposes of image and textons
+    ground: bool = False          # merge the ground between elements into one background
+    #                               layer (looks cleaner on spots, costs PSNR on grout)
     eval_every: int = 25          # steps between full-image PSNR readings
     seed: int = 0
 
@@ -67,12 +71,44 @@ def psnr(x: Tensor, y: Tensor) -> float:
     return 10 * math.log10(1 / max(F.mse_loss(x, y).item(), 1e-12))
 
 
-def initial_textons(model, image: Tensor, labels: np.ndarray) -> tuple[Textons, np.ndarray]:
+def choose_segments(model, image: Tensor, method: str, max_textons: int,
+                    ground: bool = False) -> tuple[str, Textons, np.ndarray]:
+    """(method, textons, labels) for an image (3, H, W). ``auto`` tries Felzenszwalb and SLIC
+    (at Felzenszwalb's segment count) and keeps the one whose textons, splatted with their
+    segments' mean colours (eqs. 4.3-4.7, 4.11-4.14), come closest to the image (PSNR): the
+    segments that the Gaussians can represent best."""
+    if method != "auto":
+        labels = segment_labels(image, method, model=model, max_segments=max_textons)
+        return (method, *initial_textons(model, image, labels, ground))
+    best = None
+    count = None
+    for name in ("felzenszwalb", "slic"):
+        labels = segment_labels(image, name, max_segments=max_textons, count=count)
+        count = int(labels.max()) + 1
+        textons, labels = initial_textons(model, image, labels, ground)
+        score = colour_splat_psnr(model, image, textons, labels)
+        if best is None or score > best[0]:
+            best = (score, name, textons, labels)
+    return best[1:]
+
+
+def colour_splat_psnr(model, image: Tensor, textons: Textons, labels: np.ndarray) -> float:
+    """PSNR of the textons splatted with their segments' mean colours as features."""
+    colours = segment_means(image, labels)  # (1, K, 3)
+    with torch.no_grad():
+        s = splat(replace(textons, f=colours), tuple(image.shape[-2:]), cutoff=model.cutoff)
+    return psnr(s.features[0, :3].clamp(0, 1), image)
+
+
+def initial_textons(model, image: Tensor, labels: np.ndarray,
+                    ground: bool = False) -> tuple[Textons, np.ndarray]:
     """Textons of an image (3, H, W) from hard segment labels (H, W): eqs. 4.3-4.7 on soft
     masks at full resolution with the frozen E_FC's maps, every texton existing (delta = 1),
-    larger ones behind. The ground between elements becomes one background layer
-    (:func:`ground_labels`); returns the textons and the labels they were estimated from."""
-    labels, ground = ground_labels(labels, image)
+    larger ones behind. With ``ground`` the ground between elements becomes one background
+    layer (:func:`ground_labels`); returns the textons and the labels they were estimated
+    from."""
+    if ground:
+        labels, ground = ground_labels(labels, image)
     t = _estimate(model, image, labels)
     if ground:
         t = background_layer(t, 0)
@@ -86,10 +122,10 @@ def _estimate(model, image: Tensor, labels: np.ndarray) -> Textons:
         appearance, direction = model.encoder(image[None] * 2 - 1)
         appearance = F.interpolate(appearance, size=(H, W), mode="bilinear", align_corners=False)
         direction = F.interpolate(direction, size=(H, W), mode="bilinear", align_corners=False)
-        return estimate_textons(masks, appearance, direction, existence="all", eps=model.eps)
+        return estimate_textons(masks, appearance, direction, existence="all", eps=model.config.eps)
 
 
-def ground_labels(labels: np.ndarray, image: Tensor, share: float = 0.05, fill: float = 0.5,
+def ground_labels(labels: np.ndarray, image: Tensor, share: float = 0.05, fill: float = 0.75,
                   colour: float = 0.1) -> tuple[np.ndarray, bool]:
     """Merge the *ground* into label 0: segments whose Gaussian would spread over at least
     ``share`` of the image while their pixels fill less than ``fill`` of it (grout, the
@@ -169,9 +205,8 @@ def fit_texture(model, image: Tensor, settings: FitSettings | None = None,
     cfg = settings or FitSettings()
     if cfg.steps is None and cfg.seconds is None:
         raise ValueError("fit needs a step or a time budget")
-    labels, method = segment_labels(image, cfg.segmenter, model=model,
-                                    max_segments=cfg.max_textons)
-    textons, labels = initial_textons(model, image, labels)
+    method, textons, labels = choose_segments(model, image, cfg.segmenter, cfg.max_textons,
+                                              cfg.ground)
     H, W = image.shape[-2:]
     with torch.no_grad():
         first = decode_with(model, model.generator, textons, (H, W))[0]  # (3, H, W)

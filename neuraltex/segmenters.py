@@ -7,8 +7,7 @@ from is a choice per image (``neuraltex fit --segmenter``):
   (each fine superpixel takes the E_s label most of its pixels have: image-guided refinement);
 - ``felzenszwalb`` / ``slic`` / ``kmeans``: classical segments at full resolution (k-means
   colour clusters are split into connected components, so each texton is one region);
-- ``auto``: Felzenszwalb and SLIC at the same segment count; the one whose segments, painted
-  with their mean colours, reconstruct the image better (PSNR) is used, and reported.
+(``neuraltex.fit`` adds ``auto``, which picks one of these per image by a measured criterion.)
 
 The segment count adapts to the image: Felzenszwalb's scale grows until at most
 ``max_segments`` remain, so dense textures (gravel) get hundreds of textons, not a fixed 100.
@@ -16,39 +15,31 @@ The segment count adapts to the image: Felzenszwalb's scale grows until at most
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 import torch
 import torch.nn.functional as F
 
-METHODS = ("auto", "model", "felzenszwalb", "slic", "kmeans")
+METHODS = ("model", "felzenszwalb", "slic", "kmeans")
 MAX_SEGMENTS = 400  # default cap on textons per image
 _MIN_AREA = 12      # pixels per segment at 256 x 256, scaled with the image area
 
 
-def segment_labels(image: torch.Tensor, method: str = "auto", *, model=None,
-                   max_segments: int = MAX_SEGMENTS) -> tuple[np.ndarray, str]:
-    """Segment labels of an image (3, H, W) in [0, 1] -> ((H, W) int64 in 0..K-1, the method
-    used; for ``auto``, the method it picked)."""
+def segment_labels(image: torch.Tensor, method: str, *, model=None,
+                   max_segments: int = MAX_SEGMENTS, count: int | None = None) -> np.ndarray:
+    """Segment labels of an image (3, H, W) in [0, 1] -> (H, W) int64 in 0..K-1. ``count``:
+    the number of segments SLIC aims at (default: half of ``max_segments``)."""
     if method not in METHODS:
         raise ValueError(f"segmenter must be one of {METHODS}, got {method!r}")
     arr = image.permute(1, 2, 0).cpu().numpy().astype(np.float64)  # (H, W, 3)
-    if method == "auto":
-        felz = felzenszwalb_labels(arr, max_segments)
-        slic = slic_labels(arr, int(felz.max()) + 1)
-        scores = {"felzenszwalb": mean_colour_psnr(felz, arr), "slic": mean_colour_psnr(slic, arr)}
-        best = max(scores, key=scores.get)
-        return (felz if best == "felzenszwalb" else slic), best
     if method == "model":
         if model is None:
             raise ValueError("segmenter 'model' needs the model")
-        return model_labels(model, image, max_segments), method
+        return model_labels(model, image, max_segments)
     if method == "felzenszwalb":
-        return felzenszwalb_labels(arr, max_segments), method
+        return felzenszwalb_labels(arr, max_segments)
     if method == "slic":
-        return slic_labels(arr, max_segments // 2), method
-    return kmeans_labels(arr, max_segments), method
+        return slic_labels(arr, min(max_segments, count or max_segments // 2))
+    return kmeans_labels(arr, max_segments)
 
 
 def felzenszwalb_labels(arr: np.ndarray, max_segments: int) -> np.ndarray:
@@ -56,7 +47,7 @@ def felzenszwalb_labels(arr: np.ndarray, max_segments: int) -> np.ndarray:
     from skimage.segmentation import felzenszwalb
 
     area = arr.shape[0] * arr.shape[1] / 65536  # relative to 256 x 256
-    scale, min_size = 100.0 * area, max(4, round(_MIN_AREA * area))
+    scale, min_size = 100.0, max(_MIN_AREA, round(_MIN_AREA * area))
     for _ in range(12):
         labels = felzenszwalb(arr, scale=scale, sigma=0.8, min_size=min_size)
         if labels.max() + 1 <= max_segments:
@@ -82,6 +73,7 @@ def kmeans_labels(arr: np.ndarray, max_segments: int, k: int = 8, seed: int = 0)
     lab = rgb2lab(arr).reshape(-1, 3)
     rng = np.random.default_rng(seed)
     sample = lab[rng.choice(len(lab), min(len(lab), 4096), replace=False)]
+    k = min(k, len(np.unique(sample.round(3), axis=0)))  # no more clusters than colours
     centres, _ = kmeans2(sample, k, minit="++", seed=seed)
     colour = ((lab[:, None] - centres[None]) ** 2).sum(-1).argmin(1).reshape(arr.shape[:2])
     regions = label(colour, background=-1, connectivity=1)
@@ -120,18 +112,6 @@ def soft_masks(labels: np.ndarray, softness: int = 1) -> torch.Tensor:
         m = F.avg_pool2d(m, 2 * softness + 1, stride=1, padding=softness,
                          count_include_pad=False)
     return m / m.sum(1, keepdim=True).clamp_min(1e-8)
-
-
-def mean_colour_psnr(labels: np.ndarray, arr: np.ndarray) -> float:
-    """PSNR of the image painted with each segment's mean colour (the masks' upper bound for a
-    flat-colour decoder)."""
-    flat = labels.ravel()
-    K = flat.max() + 1
-    area = np.bincount(flat, minlength=K).clip(1)
-    px = arr.reshape(-1, arr.shape[-1])
-    mean = np.stack([np.bincount(flat, px[:, c], K) for c in range(px.shape[1])], 1) / area[:, None]
-    mse = float(((mean[flat] - px) ** 2).mean())
-    return 10 * math.log10(1 / max(mse, 1e-12))
 
 
 def _dense(labels: np.ndarray) -> np.ndarray:

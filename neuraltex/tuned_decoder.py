@@ -49,6 +49,17 @@ def tuned_model(model, generator: dict[str, Tensor]):
     return tuned.eval()
 
 
+def blended_model(a, b, t: float):
+    """The tuned model ``a`` with G's parameters blended towards ``b``'s: (1 - t) a + t b
+    (both tuned from the same base, so their weights interpolate)."""
+    out = copy.deepcopy(a)
+    with torch.no_grad():
+        for (_, p), (_, q) in zip(out.generator.named_parameters(),
+                                  b.generator.named_parameters(), strict=True):
+            p.lerp_(q.to(p), t)
+    return out
+
+
 def with_offsets(textons: Textons, offsets: Tensor | None = None) -> Textons:
     """Textons of the base model (f: C_a channels) -> the tuned layout [f_a, d]; ``offsets``
     (B, K, 3) default to 0 (the texton keeps the colour G gives it)."""
@@ -57,3 +68,22 @@ def with_offsets(textons: Textons, offsets: Tensor | None = None) -> Textons:
     if offsets is None:
         offsets = textons.f.new_zeros(*textons.f.shape[:2], COLOUR)
     return replace(textons, f=torch.cat([textons.f, offsets], dim=-1))
+
+
+def combine(model, items: list[tuple[Textons, object]], t: float | None = None):
+    """The model that decodes a combination of textures and their textons in its layout.
+
+    ``items``: (textons, tuned model or None) per texture, in priority order. Without tuned
+    ones: ``model`` and the textons as they are. Otherwise the first tuned decoder (with
+    ``t``, the first two blended in weight space, (1 - t) G_a + t G_b, as they share the base),
+    and textons of plain textures get zero colour offsets (:func:`with_offsets`).
+    Returns (decoder model, [textons]).
+    """
+    tuned = [dec for _, dec in items if dec is not None]
+    if not tuned:
+        return model, [textons for textons, _ in items]
+    decoder = tuned[0]
+    if t is not None and len(tuned) > 1:
+        decoder = blended_model(tuned[0], tuned[1], t)
+    return decoder, [textons if dec is not None else with_offsets(textons)
+                     for textons, dec in items]

@@ -33,13 +33,13 @@ def weights(d: Path) -> dict[str, str]:
     still refused when its weights do not fit the model."""
     from safetensors.torch import save_file
 
-    from neuraltex.checkpoint import _tensor_digest
+    from neuraltex.checkpoint import tensor_digest
 
     d.mkdir(parents=True, exist_ok=True)
     tensors = {"w": torch.zeros(2)}
     config = {"preset": "tiny", "num_queries": 100, "image_size": 128}
     good = {"format": "neuraltex.model", "version": "1", "model_config": json.dumps(config),
-            "info": "{}", "sha256": _tensor_digest(tensors)}
+            "info": "{}", "sha256": tensor_digest(tensors)}
     deep = "[" * 10000 + "]" * 10000
     variants = {
         "fits_nothing": {}, "info_null": {"info": "null"}, "info_string": {"info": '"x"'},

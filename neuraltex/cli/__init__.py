@@ -36,7 +36,7 @@ class _Version(argparse.Action):
 
 
 def build_parser() -> argparse.ArgumentParser:
-    from neuraltex.cli import codec, edit, vectorize
+    from neuraltex.cli import codec, edit, fit, vectorize
 
     parser = OneLineParser(
         prog="neuraltex",
@@ -46,6 +46,7 @@ def build_parser() -> argparse.ArgumentParser:
                         help="print the version and the default model, then exit")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     codec.add_commands(sub)
+    fit.add_commands(sub)
     vectorize.add_commands(sub)
     edit.add_commands(sub)
     return parser

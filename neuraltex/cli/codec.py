@@ -51,15 +51,16 @@ def cmd_decode(args: argparse.Namespace) -> int:
 
 
 def cmd_reconstruct(args: argparse.Namespace) -> int:
-    """Encode an image and decode it again (at its own size unless --size)."""
+    """Encode an image (or read a texture file, .ntex) and decode it again (at its own size
+    unless --size); a texture file decodes with its tuned decoder."""
     from neuraltex.imageio import check_output_path
 
     check_output_path(args.output)
     model = common.load(args.checkpoint, args.device, args.seed)
-    image, enc = common.encode(model, args.image, common.limits(args), args.device)
-    size = common.output_size(args.size, enc.textons.canvas, min(image.shape[-2:]),
-                              common.limits(args))
-    common.save(common.decode(model, enc.textons, size, args.device)[0], args.output)
+    tex = common.textons_of(model, args.image, common.limits(args), args.device)
+    size = common.output_size(args.size, tex.textons.canvas, tex.short, common.limits(args))
+    common.save(common.decode(tex.decoder or model, tex.textons, size, args.device)[0],
+                args.output)
     return 0
 
 

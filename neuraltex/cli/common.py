@@ -26,6 +26,7 @@ if TYPE_CHECKING:
 
 IMAGE_OUT = ".png/.jpg/.webp"
 TEXTON_FILES = (".json", ".pt")
+TEXTURE_FILE = ".ntex"  # a tuned texture (neuraltex fit): textons + its own decoder
 
 
 def load(checkpoint: str | Path | None, device: str = "cpu",
@@ -71,14 +72,24 @@ class Texture:
     short: int  # default output short side: the image's, or 256 for a texton file
     image: Tensor | None = None  # (3, H, W) when read from an image
     masks: Tensor | None = None  # (n, h, w) softmax masks when read from an image
+    decoder: TextonAutoencoder | None = None  # the tuned model of a texture file
+    labels: object = None  # (H, W) int64 segments of a texture file (numpy)
 
 
 def textons_of(model: TextonAutoencoder, path: Path, lim: Limits,
                device: str = "cpu") -> Texture:
-    """The textons of a texture given as an image (encoded by ``model``) or as a texton file
-    (.json/.pt, checked against the model; it must hold one set)."""
+    """The textons of a texture given as an image (encoded by ``model``), a texton file
+    (.json/.pt, checked against the model; it must hold one set) or a texture file (.ntex,
+    tuned from ``model`` by ``neuraltex fit``; it brings its own decoder)."""
     import torch
 
+    if path.suffix.lower() == TEXTURE_FILE:
+        from neuraltex.texture_file import load_texture
+        from neuraltex.tuned_decoder import tuned_model
+
+        tex = load_texture(path, model)
+        return Texture(tex.textons.to(device=device), min(tex.header["size"]),
+                       decoder=tuned_model(model, tex.generator).to(device), labels=tex.labels)
     if path.suffix.lower() in TEXTON_FILES:
         from neuraltex.textons_file import load_textons
 
@@ -98,6 +109,15 @@ def check_textons_out(path: Path) -> Path:
     if path.suffix not in TEXTON_FILES:
         raise InputError(f"{path}: textons are written as .json or .pt")
     return check_writable(path)
+
+
+def decoder_for(model: TextonAutoencoder, *textures: Texture,
+                t: float | None = None) -> tuple[TextonAutoencoder, list[Textons]]:
+    """The model that decodes a combination of ``textures`` (the first texture file's tuned
+    decoder, if any) and their textons in its layout (:func:`neuraltex.tuned_decoder.combine`)."""
+    from neuraltex.tuned_decoder import combine
+
+    return combine(model, [(tex.textons, tex.decoder) for tex in textures], t)
 
 
 def check_fits(textons: Textons, model: TextonAutoencoder, source: Path) -> None:

@@ -1,8 +1,9 @@
 """The editing subcommands of ``neuraltex`` (seed 003, 4.4): transfer, reshuffle, interpolate,
 vary, edit, propagate, animate, stylize.
 
-Each reads images (or texton files, .json/.pt, wherever a texture is expected), edits textons
-with :mod:`neuraltex.edit` and decodes them with the model. Outputs are checked before any work,
+Each reads images (or texton files, .json/.pt, or texture files, .ntex, wherever a texture is
+expected), edits textons with :mod:`neuraltex.edit` and decodes them with the model (a texture
+file's own tuned decoder when one is given). Outputs are checked before any work,
 so bad input never leaves a partial file. Heavy imports happen inside the commands.
 """
 
@@ -26,10 +27,9 @@ def _load(args: argparse.Namespace):
     return common.load(args.checkpoint, args.device, args.seed)
 
 
-def _textons(args: argparse.Namespace, model, path: Path):
-    """(textons of one set, default output short side) of an image or a texton file."""
-    t = common.textons_of(model, path, common.limits(args), args.device)
-    return t.textons, t.short
+def _texture(args: argparse.Namespace, model, path: Path) -> common.Texture:
+    """One texture: an image, a texton file or a texture file (.ntex, with its decoder)."""
+    return common.textons_of(model, path, common.limits(args), args.device)
 
 
 def _decode(args: argparse.Namespace, model, textons, default_short: int):
@@ -93,24 +93,31 @@ def cmd_transfer(args: argparse.Namespace) -> int:
     check_output_path(args.output)
     regions = _regions(args.regions, len(args.appearance), common.limits(args))
     model = _load(args)
-    structure, short = _textons(args, model, args.structure)
-    apps = [_textons(args, model, p)[0] for p in args.appearance]
-    out = _with_appearance(structure, apps, regions, args.mode, args.seed or 0)
-    common.save(_decode(args, model, out, short), args.output)
+    source = _texture(args, model, args.structure)
+    apps = [_texture(args, model, p) for p in args.appearance]
+    # the appearance's tuned decoder renders its own features (it was tuned on them)
+    decoder, (*features, structure) = common.decoder_for(model, *apps, source)
+    out = _with_appearance(structure, features, regions, args.mode, args.seed or 0)
+    common.save(_decode(args, decoder, out, source.short), args.output)
     return 0
 
 
 def cmd_reshuffle(args: argparse.Namespace) -> int:
-    """Texture diversification (4.4.1): appearance features permuted among effective textons."""
+    """Texture diversification (4.4.1): appearance features permuted among effective textons
+    of the same kind (size and appearance); the background layer keeps its own."""
     from neuraltex.imageio import numbered
     from neuraltex.reshuffle import reshuffle
+    from neuraltex.texton_kinds import texton_kinds
 
     paths = numbered(args.output, args.count)
     model = _load(args)
-    textons, short = _textons(args, model, args.image)
+    tex = _texture(args, model, args.image)
+    decoder, (textons,) = common.decoder_for(model, tex)
+    kinds = texton_kinds(textons)
     for i, path in enumerate(paths):
         seed = None if args.seed is None else args.seed + i
-        common.save(_decode(args, model, reshuffle(textons, seed=seed), short), path)
+        out = reshuffle(textons, seed=seed, kinds=kinds)
+        common.save(_decode(args, decoder, out, tex.short), path)
     return 0
 
 
@@ -122,15 +129,19 @@ def cmd_interpolate(args: argparse.Namespace) -> int:
 
     (check_sequence_output if args.frames else check_output_path)(args.output)
     model = _load(args)
-    a, short = _textons(args, model, args.image)
-    b, _ = _textons(args, model, args.other)
-    seed = args.seed or 0
+    ta, tb = _texture(args, model, args.image), _texture(args, model, args.other)
+    seed, short = args.seed or 0, ta.short
     if args.frames:
+        _, (a, b) = common.decoder_for(model, ta, tb)
         frames = interpolate_frames(a, b, args.frames, seed)
-        _save_frames(_decode_frames(args, model, frames, short), args.output, args.fps)
+        ts = [i / (args.frames - 1) for i in range(args.frames)]
+        images = [_decode(args, common.decoder_for(model, ta, tb, t=t)[0], f, short)
+                  for f, t in _progress("frames")(list(zip(frames, ts, strict=True)))]
+        _save_frames(images, args.output, args.fps)
         return 0
+    decoder, (a, b) = common.decoder_for(model, ta, tb, t=0.5 if args.spatial else args.t)
     out = interpolate_spatially(a, b, seed) if args.spatial else interpolate(a, b, args.t, seed)
-    common.save(_decode(args, model, out, short), args.output)
+    common.save(_decode(args, decoder, out, short), args.output)
     return 0
 
 
@@ -142,9 +153,9 @@ def cmd_vary(args: argparse.Namespace) -> int:
 
     check_output_path(args.output)
     model = _load(args)
-    textons, short = _textons(args, model, args.image)
-    out = vary(textons, args.appearance, args.shape)
-    common.save(_decode(args, model, out, short), args.output)
+    tex = _texture(args, model, args.image)
+    out = vary(tex.textons, args.appearance, args.shape)
+    common.save(_decode(args, tex.decoder or model, out, tex.short), args.output)
     return 0
 
 
@@ -159,9 +170,9 @@ def cmd_edit(args: argparse.Namespace) -> int:
     if args.textons_out:
         common.check_textons_out(args.textons_out)
     model = _load(args)
-    textons, short = _textons(args, model, args.image)
-    edited = apply_edit_list(textons, args.edits)
-    image = _decode(args, model, edited, short)
+    tex = _texture(args, model, args.image)
+    edited = apply_edit_list(tex.textons, args.edits)
+    image = _decode(args, tex.decoder or model, edited, tex.short)
     if args.textons_out:
         save_textons(edited, args.textons_out)
         print(f"wrote {args.textons_out}")
@@ -196,10 +207,11 @@ def cmd_animate(args: argparse.Namespace) -> int:
 
     check_sequence_output(args.output)
     model = _load(args)
-    textons, short = _textons(args, model, args.image)
-    frames = animate(textons, args.flow, args.frames, args.duration, args.seed or 0,
+    tex = _texture(args, model, args.image)
+    frames = animate(tex.textons, args.flow, args.frames, args.duration, args.seed or 0,
                      args.velocity, args.omega)
-    _save_frames(_decode_frames(args, model, frames, short), args.output, args.fps)
+    _save_frames(_decode_frames(args, tex.decoder or model, frames, tex.short), args.output,
+                 args.fps)
     return 0
 
 
@@ -214,13 +226,15 @@ def cmd_stylize(args: argparse.Namespace) -> int:
     regions = _regions(args.regions, len(args.texture), common.limits(args))
     content = load_image(args.image, limits=common.limits(args)).to(args.device)
     model = _load(args)
-    apps = [_textons(args, model, p)[0] for p in args.texture]
+    apps = [_texture(args, model, p) for p in args.texture]
     patch = args.patch or model.config.image_size or 128
     _check_patches(content.shape[-2:], patch, args.scale, args.overlap)
     textons = content_textons(model, content, patch, args.scale, args.overlap, args.seed or 0,
                               progress=_progress("patches"))
-    out = _with_appearance(textons, apps, regions, args.mode, args.seed or 0)
-    common.save(_decode(args, model, out, min(content.shape[-2:])), args.output)
+    decoder, (*features, structure) = common.decoder_for(
+        model, *apps, common.Texture(textons, min(content.shape[-2:])))
+    out = _with_appearance(structure, features, regions, args.mode, args.seed or 0)
+    common.save(_decode(args, decoder, out, min(content.shape[-2:])), args.output)
     return 0
 
 

@@ -12,7 +12,8 @@ from neuraltex.limits import MAX_PIXELS_VECTORIZE
 
 def cmd_vectorize(args: argparse.Namespace) -> int:
     """Vectorize an image: one SVG element per texton (or segment), filled with the image's
-    colours, drawn in compositing order over a background layer."""
+    colours, drawn in compositing order over a background layer. A texture file (.ntex) gives
+    its fitted segments, coloured by its tuned reconstruction."""
     from neuraltex.fileio import check_writable, write_text_atomic
     from neuraltex.imageio import load_image
     from neuraltex.segments import segment_image
@@ -21,14 +22,18 @@ def cmd_vectorize(args: argparse.Namespace) -> int:
     if args.output.suffix != ".svg":
         raise InputError(f"{args.output}: must end in .svg")
     check_writable(args.output)
-    if args.mode == "ellipse" and args.segmenter != "model":
-        raise InputError("--mode ellipse needs the texton model (--segmenter model)")
+    texture_file = args.image.suffix.lower() == common.TEXTURE_FILE
+    if args.mode == "ellipse" and args.segmenter != "model" and not texture_file:
+        raise InputError("--mode ellipse needs textons (--segmenter model or a texture file)")
     model = None
-    if args.segmenter == "model":
+    if args.segmenter == "model" or texture_file:
         model = common.load(args.checkpoint, args.device, args.seed)
-    image = load_image(args.image, limits=common.limits(args)).to(args.device)
-    seg, textons = segment_image(image, args.segmenter, model, args.source,
-                                 background=not args.keep_backdrop)
+    if texture_file:
+        image, seg, textons = _texture_segments(model, args)
+    else:
+        image = load_image(args.image, limits=common.limits(args)).to(args.device)
+        seg, textons = segment_image(image, args.segmenter, model, args.source,
+                                     background=not args.keep_backdrop)
     params = VectorizeParams(gradient=not args.no_gradient, background=args.background,
                              kinds=args.kinds)
     arr = image.permute(1, 2, 0).cpu().numpy()
@@ -43,6 +48,17 @@ def cmd_vectorize(args: argparse.Namespace) -> int:
     print(f"wrote {args.output}: {len(vec.elements)} elements of {seg.count} segments, "
           f"{len(text.encode()) / 1024:.1f} KiB")
     return 0
+
+
+def _texture_segments(model, args: argparse.Namespace):
+    """(image, segments, textons) of a texture file: its fitted segments, coloured by its
+    tuned reconstruction at the size it was fitted at."""
+    from neuraltex.segments import drop_background, from_labels
+
+    tex = common.textons_of(model, args.image, common.limits(args), args.device)
+    image = common.decode(tex.decoder, tex.textons, tex.labels.shape, args.device)[0]
+    seg = from_labels(tex.labels, image.permute(1, 2, 0).cpu().numpy().astype("float64"))
+    return image, (seg if args.keep_backdrop else drop_background(seg)), tex.textons
 
 
 def add_commands(sub) -> None:

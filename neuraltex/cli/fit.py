@@ -1,0 +1,118 @@
+"""``neuraltex fit``: tune the decoder to one texture and write a texture file (.ntex) that
+every editing command reads in place of the image."""
+
+from __future__ import annotations
+
+import argparse
+import hashlib
+from pathlib import Path
+
+from neuraltex.cli import common
+from neuraltex.errors import InputError
+
+MAX_FIT_SIDE = 1024
+
+
+def cmd_fit(args: argparse.Namespace) -> int:
+    """Tune the model to one texture (segments -> textons, then the decoder G and the textons'
+    appearance, for --seconds or --steps) and write a texture file (.ntex): sharp
+    reconstructions and edits of that texture with every other command."""
+    import torch
+
+    from neuraltex.fit import SEGMENTERS, FitSettings, fit_texture
+    from neuraltex.imageio import check_output_path, load_image
+    from neuraltex.texture_file import SUFFIX, save_texture
+
+    _check(args)
+    if args.output.suffix.lower() != SUFFIX:
+        raise InputError(f"{args.output}: a texture file must end in {SUFFIX}")
+    if args.preview:
+        check_output_path(args.preview)
+    if args.segmenter not in SEGMENTERS:
+        raise InputError(f"--segmenter must be one of {', '.join(SEGMENTERS)}")
+    model = common.load(args.checkpoint, args.device, args.seed)
+    image = load_image(args.image, max_side=args.max_side)
+    h, w = image.shape[-2:]
+    image = _at_short_side(image, args.size).to(args.device)
+    seconds = DEFAULT_SECONDS if args.seconds is None and args.steps is None else args.seconds
+    settings = FitSettings(segmenter=args.segmenter, seconds=seconds, steps=args.steps,
+                           max_textons=args.max_textons, seed=args.seed or 0)
+    fit = fit_texture(model, image, settings)
+    source = {"file": args.image.name, "width": w, "height": h,
+              "sha256": hashlib.sha256(args.image.read_bytes()).hexdigest()}
+    header = {"source": source, "size": list(image.shape[-2:]), "segmenter": fit.segmenter,
+              "fit": {"steps": fit.steps, "seconds": round(fit.seconds, 2),
+                      "psnr": round(fit.psnr, 3), "base_psnr": round(fit.base_psnr, 3)}}
+    size = save_texture(args.output, model, fit.textons, fit.labels, fit.generator, header)
+    print(f"{fit.segmenter} segments -> {fit.textons.num_textons} textons; tuned "
+          f"{fit.steps} steps in {fit.seconds:.1f} s: PSNR {fit.base_psnr:.2f} -> "
+          f"{fit.psnr:.2f} dB")
+    print(f"wrote {args.output} ({size / 1024:.0f} KB)")
+    if args.preview:
+        from neuraltex.tuned_decoder import tuned_model
+
+        with torch.no_grad():
+            out = tuned_model(model, fit.generator).decode(fit.textons, tuple(image.shape[-2:]))
+        common.save(torch.cat([image, out[0]], dim=-1), args.preview)
+    return 0
+
+
+DEFAULT_SECONDS = 45.0
+
+
+def _check(args: argparse.Namespace) -> None:
+    if args.seconds is not None and not 0 < args.seconds < 1e6:
+        raise InputError(f"--seconds must be a positive number, got {args.seconds}")
+    if args.steps is not None and not 1 <= args.steps <= 10**6:
+        raise InputError(f"--steps must lie in 1..1000000, got {args.steps}")
+    if not 16 <= args.size <= MAX_FIT_SIDE:
+        raise InputError(f"--size must lie in 16..{MAX_FIT_SIDE}, got {args.size}")
+    if not 2 <= args.max_textons <= 4096:
+        raise InputError(f"--max-textons must lie in 2..4096, got {args.max_textons}")
+
+
+def _at_short_side(image, short: int):
+    """Downscale (never upscale) an image (3, H, W) so its short side is at most ``short``."""
+    import torch.nn.functional as F
+
+    H, W = image.shape[-2:]
+    if min(H, W) <= short:
+        return image
+    s = short / min(H, W)
+    size = (max(1, round(H * s)), max(1, round(W * s)))
+    return F.interpolate(image[None], size=size, mode="bilinear", antialias=True,
+                         align_corners=False)[0].clamp(0, 1)
+
+
+def add_commands(sub) -> None:
+    """Register fit."""
+    from neuraltex.fit import SEGMENTERS
+    from neuraltex.segmenters import MAX_SEGMENTS
+
+    p = sub.add_parser("fit", help="tune the model to one texture -> texture file (.ntex)",
+                       description=cmd_fit.__doc__)
+    p.add_argument("image", type=Path, help="the texture image (any common format)")
+    p.add_argument("-o", "--output", type=Path, required=True,
+                   help="texture file to write (.ntex)")
+    p.add_argument("--seconds", type=float,
+                   help=f"tuning time budget in seconds (default {DEFAULT_SECONDS:g} unless "
+                   "--steps is given; segmentation comes on top)")
+    p.add_argument("--steps", type=int,
+                   help="tuning step budget; alone (without --seconds) the run is reproducible "
+                   "for a --seed")
+    p.add_argument("--segmenter", default="auto", choices=SEGMENTERS,
+                   help="where the texton masks come from: the learned E_s ('model', refined to "
+                   "the image's edges), a classical segmenter, or 'auto' (default: picks "
+                   "Felzenszwalb or SLIC by how well their textons' colours splat back)")
+    p.add_argument("--size", type=int, default=256,
+                   help="fit at this short side; larger images are downscaled (default 256)")
+    p.add_argument("--max-textons", type=int, default=MAX_SEGMENTS,
+                   help=f"at most this many textons (default {MAX_SEGMENTS})")
+    p.add_argument("--preview", type=Path,
+                   help="also write input | tuned reconstruction side by side (.png/.jpg/.webp)")
+    p.add_argument("--checkpoint", help="base model .safetensors (default: the shipped model)")
+    p.add_argument("--device", default="cpu", help="torch device (default: cpu)")
+    p.add_argument("--seed", type=int, help="random seed (default 0)")
+    p.add_argument("--max-side", type=int, default=2048,
+                   help="larger inputs are downscaled to this side on reading (default 2048)")
+    p.set_defaults(func=cmd_fit)

@@ -1,0 +1,215 @@
+"""Real-texture benchmark of ``neuraltex fit``: reconstruction, reshuffling, speed and file size
+on photographed / scanned textures (data/real_textures, see its SOURCES.md), against references
+computed here on the same images:
+
+- flat: the image's mean colour;  blur: 4x box downsample + bicubic upsample;
+- kmeans8: the image quantized to 8 k-means colours;
+- reshuffle: patch-SWD(input, kind-aware reshuffle) vs patch-SWD(input, reconstruction) and vs
+  a random-placement reference (the same textons at uniform random positions, same decoder);
+- init: with ``--init-compare N``, the first N images are also tuned from a randomly
+  initialized model for the same seconds (does the pretrained model earn its place?).
+
+    python scripts/eval_real.py                      # 25 real textures, default fit budget
+    python scripts/eval_real.py --seconds 20 --limit 5 --init-compare 3
+    python scripts/eval_real.py --procedural 10      # procedural benchmark images too
+
+Prints one row per image and the means; ``--out FILE.md`` also writes the table.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import tempfile
+import time
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import torch
+import torch.nn.functional as F
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from cvt.metrics import patch_swd  # noqa: E402
+from neuraltex.fit import FitSettings, fit_texture, psnr  # noqa: E402
+from neuraltex.imageio import load_image  # noqa: E402
+from neuraltex.model import DEFAULT_MODEL, build_model, load_model  # noqa: E402
+from neuraltex.reshuffle import reshuffle  # noqa: E402
+from neuraltex.texton_kinds import texton_kinds  # noqa: E402
+from neuraltex.texture_file import load_texture, save_texture  # noqa: E402
+from neuraltex.tuned_decoder import tuned_model  # noqa: E402
+
+REAL = Path(__file__).resolve().parents[1] / "data" / "real_textures"
+COLS = ("flat", "blur", "kmeans8", "fit", "ssim_blur", "ssim_fit", "swd_rec", "swd_shuf",
+        "swd_rand", "seconds", "steps", "textons", "kib", "edit_s")
+
+
+def references(image: torch.Tensor) -> dict[str, torch.Tensor]:
+    """The three reference reconstructions of an image (3, H, W)."""
+    from scipy.cluster.vq import kmeans2
+
+    H, W = image.shape[-2:]
+    flat = image.mean((1, 2), keepdim=True).expand_as(image)
+    blur = F.interpolate(F.avg_pool2d(image[None], 4), size=(H, W), mode="bicubic",
+                         align_corners=False)[0].clamp(0, 1)
+    px = image.flatten(1).T.double().numpy()
+    centres, labels = kmeans2(px, 8, minit="++", seed=0)
+    quant = torch.from_numpy(centres[labels]).float().T.reshape(3, H, W)
+    return {"flat": flat, "blur": blur, "kmeans8": quant}
+
+
+def ssim(a: torch.Tensor, b: torch.Tensor) -> float:
+    from skimage.metrics import structural_similarity
+
+    return float(structural_similarity(a.permute(1, 2, 0).numpy(), b.permute(1, 2, 0).numpy(),
+                                       channel_axis=2, data_range=1.0))
+
+
+def swd(a: torch.Tensor, b: torch.Tensor) -> float:
+    return patch_swd(a.permute(1, 2, 0).numpy(), b.permute(1, 2, 0).numpy())
+
+
+def random_placement(textons, seed: int = 0):
+    """The same textons at uniform random positions on the canvas."""
+    g = torch.Generator().manual_seed(seed)
+    w, h = textons.canvas
+    mu = torch.rand(textons.mu.shape, generator=g) * torch.tensor([w, h])
+    return replace(textons, mu=mu)
+
+
+def evaluate(model, image: torch.Tensor, settings: FitSettings, workdir: Path) -> dict:
+    row = {}
+    refs = references(image)
+    for name, ref in refs.items():
+        row[name] = psnr(ref, image)
+    row["ssim_blur"] = ssim(refs["blur"], image)
+    fit = fit_texture(model, image, settings)
+    path = workdir / "t.ntex"
+    header = {"source": {}, "size": list(image.shape[-2:]), "segmenter": fit.segmenter,
+              "fit": {"steps": fit.steps}}
+    row["kib"] = save_texture(path, model, fit.textons, fit.labels, fit.generator, header) / 1024
+    tex = load_texture(path, model)  # what the CLI sees: fp16 deltas
+    decoder, size = tuned_model(model, tex.generator), tuple(image.shape[-2:])
+    with torch.no_grad():
+        rec = decoder.decode(tex.textons, size)[0]
+        start = time.perf_counter()
+        shuf = decoder.decode(reshuffle(tex.textons, seed=1, kinds=texton_kinds(tex.textons)),
+                              size)[0]
+        row["edit_s"] = time.perf_counter() - start
+        rand = decoder.decode(random_placement(tex.textons), size)[0]
+    row.update(fit=psnr(rec, image), ssim_fit=ssim(rec, image), swd_rec=swd(image, rec),
+               swd_shuf=swd(image, shuf), swd_rand=swd(image, rand), seconds=fit.seconds,
+               steps=fit.steps, textons=fit.textons.num_textons, segmenter=fit.segmenter)
+    row["_pictures"] = (rec, shuf)
+    return row
+
+
+def procedural_images(count: int) -> list[tuple[str, torch.Tensor]]:
+    """The first ``count`` 256 px images of the procedural benchmark split."""
+    from neuraltex.data.generator import generate
+    from neuraltex.data.splits import benchmark_split
+
+    items = [it for it in benchmark_split() if it.size == 256][:count]
+    out = []
+    for it in items:
+        sample = generate(it.index, it.seed, it.size, it.family)
+        image = torch.from_numpy(sample.image).permute(2, 0, 1).contiguous()
+        out.append((f"procedural_{it.index}_{sample.family}", image))
+    return out
+
+
+def table(rows: list[tuple[str, dict]]) -> str:
+    head = "| image | segmenter | " + " | ".join(COLS) + " |"
+    lines = [head, "|" + "---|" * (len(COLS) + 2)]
+    for name, r in rows:
+        lines.append(f"| {name} | {r.get('segmenter', '')} | "
+                     + " | ".join(_fmt(r[c]) for c in COLS) + " |")
+    mean = {c: float(np.mean([r[c] for _, r in rows])) for c in COLS}
+    lines.append("| **mean** | | " + " | ".join(_fmt(mean[c]) for c in COLS) + " |")
+    return "\n".join(lines)
+
+
+def _fmt(x) -> str:
+    return f"{x:.0f}" if isinstance(x, int) or abs(x) >= 100 else f"{x:.2f}"
+
+
+def summary(rows: list[tuple[str, dict]]) -> list[str]:
+    r = [row for _, row in rows]
+    n = len(r)
+    mean = lambda key: float(np.mean([x[key] for x in r]))  # noqa: E731
+    return [
+        f"mean PSNR: fit {mean('fit'):.2f} dB | flat {mean('flat'):.2f} | blur {mean('blur'):.2f} "
+        f"| kmeans8 {mean('kmeans8'):.2f}; target blur + 3 = {mean('blur') + 3:.2f}",
+        f"fit above flat on {sum(x['fit'] > x['flat'] for x in r)}/{n}, above blur on "
+        f"{sum(x['fit'] > x['blur'] for x in r)}/{n}",
+        f"reshuffle SWD <= 1.25 x reconstruction SWD on "
+        f"{sum(x['swd_shuf'] <= 1.25 * x['swd_rec'] for x in r)}/{n}; below random placement "
+        f"on {sum(x['swd_shuf'] < x['swd_rand'] for x in r)}/{n}",
+        f"fit seconds mean {mean('seconds'):.1f} (max {max(x['seconds'] for x in r):.1f}); "
+        f"texture file {mean('kib'):.0f} KiB (max {max(x['kib'] for x in r):.0f}); reshuffle "
+        f"decode {mean('edit_s'):.2f} s",
+    ]
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--seconds", type=float, default=45.0, help="fit budget per image (45)")
+    ap.add_argument("--steps", type=int, help="fit step budget instead (reproducible)")
+    ap.add_argument("--segmenter", default="auto", help="fit --segmenter (default auto)")
+    ap.add_argument("--limit", type=int, help="only the first N real images")
+    ap.add_argument("--procedural", type=int, default=0, help="also N procedural images")
+    ap.add_argument("--init-compare", type=int, default=0,
+                    help="tune the first N images from random weights too, same budget")
+    ap.add_argument("--threads", type=int, default=1, help="torch threads (default 1)")
+    ap.add_argument("--out", type=Path, help="also write the table (markdown) here")
+    ap.add_argument("--pictures", type=Path, help="folder for input|fit|reshuffle PNGs")
+    args = ap.parse_args()
+    torch.set_num_threads(args.threads)
+    start = time.perf_counter()
+    model = load_model(DEFAULT_MODEL)
+    print(f"start-up (import + load model): {time.perf_counter() - start:.2f} s")
+    settings = FitSettings(segmenter=args.segmenter, seconds=None if args.steps else args.seconds,
+                           steps=args.steps)
+    images = [(p.stem, load_image(p)) for p in sorted(REAL.glob("*.png"))][:args.limit]
+    images += procedural_images(args.procedural)
+    rows = []
+    with tempfile.TemporaryDirectory() as tmp:
+        for name, image in images:
+            row = evaluate(model, image, settings, Path(tmp))
+            pics = row.pop("_pictures")
+            if args.pictures:
+                from neuraltex.imageio import save_image
+
+                args.pictures.mkdir(parents=True, exist_ok=True)
+                save_image(torch.cat([image, *pics], -1), args.pictures / f"{name}.png")
+            rows.append((name, row))
+            print(f"{name:24s} {row['segmenter']:12s} fit {row['fit']:.2f} dB (flat "
+                  f"{row['flat']:.2f}, blur {row['blur']:.2f}, kmeans8 {row['kmeans8']:.2f}) "
+                  f"swd rec/shuf/rand {row['swd_rec']:.1f}/{row['swd_shuf']:.1f}/"
+                  f"{row['swd_rand']:.1f} {row['steps']} steps {row['seconds']:.0f} s",
+                  flush=True)
+        real = [(n, r) for n, r in rows if not n.startswith("procedural_")]
+        text = table(rows) + "\n\n" + "\n".join(f"- {s}" for s in summary(real or rows))
+        init = init_compare(images[:args.init_compare], settings)
+        text += "".join(f"\n- {s}" for s in init)
+    print(text)
+    if args.out:
+        args.out.write_text(text + "\n")
+
+
+def init_compare(images, settings: FitSettings) -> list[str]:
+    """Pretrained vs random initialization at the same budget, on ``images``."""
+    if not images:
+        return []
+    pre, rnd = load_model(DEFAULT_MODEL), build_model(load_model(DEFAULT_MODEL).config).eval()
+    out = []
+    for name, image in images:
+        a, b = fit_texture(pre, image, settings), fit_texture(rnd, image, settings)
+        out.append(f"init {name}: pretrained {a.psnr:.2f} dB vs random {b.psnr:.2f} dB "
+                   f"({a.steps} / {b.steps} steps)")
+    return out
+
+
+if __name__ == "__main__":
+    main()

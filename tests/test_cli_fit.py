@@ -1,0 +1,101 @@
+"""`neuraltex fit` and texture files (.ntex) through every command that reads a texture,
+in-process, on tiny images with the shipped default model."""
+
+import json
+
+import numpy as np
+import pytest
+from PIL import Image
+
+from neuraltex.cli import main
+from neuraltex.data.generator import generate
+
+pytestmark = pytest.mark.usefixtures("one_thread")
+
+
+@pytest.fixture(scope="module")
+def files(tmp_path_factory):
+    d = tmp_path_factory.mktemp("fit")
+    for name, index in (("a.png", 0), ("b.png", 3)):
+        pic = (generate(index, 0, (32, 40)).image * 255).round().astype(np.uint8)
+        Image.fromarray(pic).save(d / name)
+    assert main(["fit", str(d / "a.png"), "-o", str(d / "a.ntex"), "--steps", "60",
+                 "--segmenter", "felzenszwalb", "--preview", str(d / "prev.png")]) == 0
+    return d
+
+
+def test_fit_writes_a_small_texture_file_and_a_preview(files, capsys):
+    assert (files / "a.ntex").stat().st_size < 2 * 2**20
+    with Image.open(files / "prev.png") as im:
+        assert im.size == (80, 32)  # input | reconstruction
+
+
+@pytest.mark.parametrize("argv", [
+    ["reconstruct", "{a}", "-o", "{out}.png"],
+    ["reshuffle", "{a}", "-o", "{out}_{{i}}.png", "--count", "2", "--seed", "1"],
+    ["vary", "{a}", "-o", "{out}.png", "--appearance", "0.5"],
+    ["transfer", "{b}", "{a}", "-o", "{out}.png"],
+    ["transfer", "{a}", "{b}", "-o", "{out}.png", "--mode", "replace"],
+    ["interpolate", "{a}", "{b}", "-o", "{out}.gif", "--frames", "3"],
+    ["interpolate", "{a}", "{a}", "-o", "{out}.png", "--t", "0.3"],
+    ["animate", "{a}", "-o", "{out}.gif", "--frames", "2"],
+    ["stylize", "{b}", "{a}", "-o", "{out}.png"],
+    ["vectorize", "{a}", "-o", "{out}.svg"],
+    ["vectorize", "{a}", "-o", "{out}.svg", "--mode", "ellipse"],
+])
+def test_every_texture_command_takes_a_texture_file(files, tmp_path, argv):
+    values = {"a": files / "a.ntex", "b": files / "b.png", "out": tmp_path / "out"}
+    args = [a.format(**values) for a in argv]
+    assert main(args) == 0
+    assert list(tmp_path.iterdir())
+
+
+def test_texture_file_edit_list(files, tmp_path):
+    edits = tmp_path / "e.json"
+    edits.write_text(json.dumps([{"select": {"point": [0.5, 0.5]}, "op": "scale", "by": 1.5}]))
+    assert main(["edit", str(files / "a.ntex"), str(edits), "-o", str(tmp_path / "o.png")]) == 0
+
+
+def test_reconstruction_from_the_texture_file_is_the_tuned_one(files, tmp_path):
+    """The tuned decoder, not the base one, renders the file's textons: its reconstruction
+    is closer to the input than the base model's encode-decode."""
+    main(["reconstruct", str(files / "a.ntex"), "-o", str(tmp_path / "t.png")])
+    main(["reconstruct", str(files / "a.png"), "-o", str(tmp_path / "b.png")])
+    src = np.asarray(Image.open(files / "a.png"), np.float32)
+    tuned = np.asarray(Image.open(tmp_path / "t.png"), np.float32)
+    base = np.asarray(Image.open(tmp_path / "b.png"), np.float32)
+    assert ((tuned - src) ** 2).mean() < ((base - src) ** 2).mean()
+
+
+@pytest.mark.parametrize("extra, message", [
+    (["--seconds", "0"], "--seconds"),
+    (["--steps", "0"], "--steps"),
+    (["--size", "8"], "--size"),
+    (["--max-textons", "1"], "--max-textons"),
+])
+def test_bad_fit_arguments_are_one_line(files, tmp_path, capsys, extra, message):
+    out = tmp_path / "x.ntex"
+    assert main(["fit", str(files / "a.png"), "-o", str(out), *extra]) == 2
+    assert message in capsys.readouterr().err and not out.exists()
+
+
+def test_odd_images_fit_or_fail_cleanly(tmp_path, capsys):
+    Image.new("RGB", (1, 1), (200, 10, 10)).save(tmp_path / "dot.png")
+    Image.new("L", (24, 24), 128).save(tmp_path / "flat.png")
+    for name in ("dot.png", "flat.png"):
+        code = main(["fit", str(tmp_path / name), "-o", str(tmp_path / f"{name}.ntex"),
+                     "--steps", "2"])
+        err = capsys.readouterr().err
+        assert code in (0, 2) and "Traceback" not in err
+        assert (tmp_path / f"{name}.ntex").exists() == (code == 0)
+    assert main(["fit", str(tmp_path / "flat.png"), "-o", str(tmp_path / "x.png")]) == 2
+
+
+def test_tampered_texture_file_is_refused_before_any_output(files, tmp_path, capsys):
+    data = bytearray((files / "a.ntex").read_bytes())
+    data[-9] ^= 0x55
+    bad = tmp_path / "bad.ntex"
+    bad.write_bytes(bytes(data))
+    out = tmp_path / "o.png"
+    assert main(["reconstruct", str(bad), "-o", str(out)]) == 2
+    assert "checksum" in capsys.readouterr().err and not out.exists()
