@@ -40,6 +40,10 @@ class Limits:
     max_pixels: int = MAX_PIXELS
     max_aspect: float = MAX_ASPECT
 
+    def __post_init__(self) -> None:
+        if self.max_side < 1 or self.max_pixels < 1 or not self.max_aspect >= 1:
+            raise InputError("--max-side and --max-pixels must be >= 1, --max-aspect >= 1")
+
     def input_size(self, w: int, h: int, what: str) -> tuple[int, int]:
         """(w, h) a picture of ``w`` x ``h`` is read at: downscaled into the budget; an extreme
         aspect ratio is refused (it would be downscaled to nothing)."""

@@ -55,6 +55,10 @@ ARGUMENTS = [
     ("vectorize", ("--segmenter", "grid"), "ok"),
     ("transfer", ("--regions", "{c}/images/rgb.png"), "error"),
     ("transfer", ("--mode", "swap"), "error"),
+    *[("fit", extra, "error") for extra in (
+        ("--device", "cuda"), ("--device", "cuda:x"), ("--max-side", "0"), ("--steps", "-1"),
+        ("--seconds", "nan"), ("--size", "0"), ("--size", "100000"), ("--max-textons", "0"),
+        ("--segmenter", "magic"))],
 ]
 
 

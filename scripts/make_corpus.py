@@ -114,7 +114,19 @@ def edit_lists(d: Path) -> dict[str, str]:
 
 
 COMMANDS = ("encode", "reconstruct", "overlay", "vectorize", "transfer", "reshuffle",
-            "interpolate", "vary", "edit", "propagate", "animate", "stylize")
+            "interpolate", "vary", "edit", "propagate", "animate", "stylize", "fit")
+
+
+def texture_files(d: Path, weights_dir: Path) -> dict[str, str]:
+    """Broken texture files (.ntex, written by ``neuraltex fit``)."""
+    d.mkdir(parents=True, exist_ok=True)
+    (d / "empty.ntex").write_bytes(b"")
+    (d / "garbage.ntex").write_bytes(bytes(range(256)) * 2)
+    (d / "model_export.ntex").write_bytes((weights_dir / "fits_nothing.safetensors").read_bytes())
+    (d / "deep_header.ntex").write_bytes((weights_dir / "info_deep.safetensors").read_bytes())
+    names = ["empty.ntex", "garbage.ntex", "model_export.ntex", "deep_header.ntex",
+             "missing.ntex"]
+    return {n: "error" for n in names}
 
 
 def command(name: str, src: str, extra: tuple = ()) -> list[str]:
@@ -135,6 +147,7 @@ def command(name: str, src: str, extra: tuple = ()) -> list[str]:
         "animate": ["animate", src, "-o", f"{o}/an.gif", "--frames", "2", "--size", "32"],
         "stylize": ["stylize", src, b, "-o", f"{o}/st.png", "--patch", "32"],
         "textons": ["textons", src],
+        "fit": ["fit", src, "-o", f"{o}/f.ntex", "--steps", "2"],
         "model-info": ["model-info"],
     }[name]
     return argv + list(extra)
@@ -148,7 +161,7 @@ ACCEPTED_BY = {"two_sets.pt": ("textons", "decode"), "wrong_channels.pt": ("text
 
 def file_cases(kind: str, files: dict[str, str], commands: tuple, ok_commands: tuple) -> list:
     """Every error file through ``commands``; every ok file through ``ok_commands``."""
-    folder = {"images": IMG, "textons": TEX}[kind]
+    folder = {"images": IMG, "textons": TEX, "textures": "{c}/textures"}[kind]
     cases = []
     for name, expect in files.items():
         for cmd in commands if expect == "error" else ok_commands:
@@ -163,9 +176,11 @@ def main() -> None:
     imgs = images(ROOT / "images")
     valid = _encoded(ROOT / "images" / "rgb.png")
     tex = texton_files(ROOT / "textons", valid)
-    wts, eds = weights(ROOT / "weights"), edit_lists(ROOT / "edits")
+    wts, eds = weights(ROOT / "weights"), edit_lists(ROOT / "edits")  # before textures
     cases = file_cases("images", imgs, COMMANDS, ("encode", "reconstruct"))
     cases += file_cases("textons", tex, ("decode", "textons", "vary"), ("decode", "textons"))
+    ntex = texture_files(ROOT / "textures", ROOT / "weights")
+    cases += file_cases("textures", ntex, ("vary", "reconstruct", "vectorize", "transfer"), ())
     for name in wts:
         for cmd in ("model-info", "reconstruct"):
             cases.append({"id": f"weights/{name}/{cmd}", "expect": "error",

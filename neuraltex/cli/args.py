@@ -49,20 +49,26 @@ seed = integer(0, SEED_MAX)
 
 def device(text: str) -> str:
     """An argparse type: a torch device that exists on this machine (cpu, cuda, cuda:1, mps)."""
+    problem = device_problem(text)
+    if problem:
+        raise argparse.ArgumentTypeError(problem)
+    return text
+
+
+def device_problem(text: str) -> str | None:
+    """Why ``text`` is not a usable torch device here, or None when it is."""
     import torch
 
     try:
         dev = torch.device(text)
-    except (RuntimeError, ValueError):
-        raise argparse.ArgumentTypeError(f"unknown device {text!r} (cpu, cuda, cuda:N, mps)") \
-            from None
+    except (RuntimeError, ValueError, TypeError):
+        return f"unknown device {text!r} (cpu, cuda, cuda:N, mps)"
     if dev.type == "cpu":
-        return text
+        return None
     if dev.type == "cuda" and torch.cuda.is_available():
         if dev.index is None or dev.index < torch.cuda.device_count():
-            return text
-        raise argparse.ArgumentTypeError(f"{text}: this machine has "
-                                         f"{torch.cuda.device_count()} CUDA device(s)")
+            return None
+        return f"{text}: this machine has {torch.cuda.device_count()} CUDA device(s)"
     if dev.type == "mps" and torch.backends.mps.is_available():
-        return text
-    raise argparse.ArgumentTypeError(f"{text}: no such device on this machine (use cpu)")
+        return None
+    return f"{text}: no such device on this machine (use cpu)"

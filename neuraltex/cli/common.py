@@ -37,6 +37,9 @@ def load(checkpoint: str | Path | None, device: str = "cpu",
 
     from neuraltex.model import DEFAULT_MODEL, load_model
 
+    problem = types.device_problem(str(device))
+    if problem:  # commands whose --device is not parsed by args.device
+        raise InputError(f"--device {problem}")
     path = Path(checkpoint) if checkpoint else DEFAULT_MODEL
     if not checkpoint and not path.exists():
         raise InputError("no default model is shipped; pass --checkpoint MODEL.safetensors "
