@@ -19,6 +19,8 @@ from dataclasses import dataclass, field
 import numpy as np
 import svgelements as se
 
+from cvt.background import split_background
+from cvt.elements import element_nodes
 from neuraltex.errors import InputError
 
 SVG_NS = "http://www.w3.org/2000/svg"
@@ -82,6 +84,10 @@ class Exemplar:
     # Optional appearance attributes A (seed 000 sec. 4.2), one row per element, (E, D); e.g.
     # one-hot texton kinds (cvt.from_textons). None: spatial information only, as in the paper.
     appearance: np.ndarray | None = None
+    # Canvas-covering content under the elements (cvt.background): carried to the output as
+    # background, never arranged. Its elements keep their document order.
+    background: list[Element] = field(default_factory=list)
+    note: str = ""  # what the parser decided (element mode, background), one line
 
     @property
     def size(self) -> float:
@@ -218,8 +224,12 @@ def _mini_doc(root: ET.Element, hidden: list[ET.Element], node: ET.Element) -> b
     return ET.tostring(mini)
 
 
-def parse_svg(data: bytes) -> Exemplar:
-    """Parse untrusted SVG bytes into an :class:`Exemplar` (raises InputError on bad input)."""
+def parse_svg(data: bytes, elements: str = "groups") -> Exemplar:
+    """Parse untrusted SVG bytes into an :class:`Exemplar` (raises InputError on bad input).
+
+    ``elements`` says which nodes are elements (cvt.elements: "auto", "shapes", "groups"; the
+    default "groups" is the file's top-level nodes). Background content (cvt.background) is
+    split off into ``Exemplar.background``."""
     _check_safe(data)
     root, namespaces = _parse_xml(data)
     for prefix, uri in namespaces.items():  # keep the file's prefixes (inkscape:, sodipodi:)
@@ -242,9 +252,12 @@ def parse_svg(data: bytes) -> Exemplar:
             unsupported += 1
         elif tag not in _SKIP_TAGS and not _hidden(child):
             candidates.append(child)
+    tops = candidates
+    candidates, note = element_nodes(tops, elements, _drawable)
     if len(candidates) > MAX_ELEMENTS:
-        raise InputError(f"SVG has more than {MAX_ELEMENTS} top-level elements")
-    by_id = _ids(defs + candidates)
+        raise InputError(f"SVG has more than {MAX_ELEMENTS} elements")
+    defs = defs + _nested_defs(tops)
+    by_id = _ids(defs + tops)
     styles = [n for d in defs for n in d.iter() if _local(n.tag) == "style"]
     elements = []
     for node in candidates:
@@ -262,8 +275,33 @@ def parse_svg(data: bytes) -> Exemplar:
     root_attrs = {k: v for k, v in root.attrib.items() if _local(k) not in _ROOT_GEOMETRY_ATTRS}
     # Referenced top-level elements must stay resolvable in the output: keep them as defs too.
     used = set().union(*(_refs(e.node) for e in elements)) if elements else set()
-    referenced = [c for c in candidates if c.get("id") in used]
-    return Exemplar(elements, box, root_attrs, defs + referenced, unit)
+    referenced = [c for c in tops if c.get("id") in used]
+    return split_background(Exemplar(elements, box, root_attrs, defs + referenced, unit,
+                                     note=note))
+
+
+def _drawable(node: ET.Element) -> bool:
+    tag = _local(node.tag)
+    return (tag not in _DEF_TAGS and tag not in _SKIP_TAGS and tag not in _UNSUPPORTED_TAGS
+            and not _hidden(node))
+
+
+def _nested_defs(tops: list[ET.Element]) -> list[ET.Element]:
+    """Definitions inside groups (opened groups leave them behind), outermost ones only."""
+    out: list[ET.Element] = []
+
+    def walk(node: ET.Element) -> None:
+        for child in node:
+            if not isinstance(child.tag, str):
+                continue
+            if _local(child.tag) in _DEF_TAGS:
+                out.append(child)
+            else:
+                walk(child)
+
+    for top in tops:
+        walk(top)
+    return out
 
 
 _REF = re.compile(r"#([^\s)'\"#]+)")
@@ -297,13 +335,13 @@ def _reference_closure(node: ET.Element, by_id: dict[str, ET.Element]) -> list[s
     return sorted(seen)
 
 
-def load_svg(path) -> Exemplar:
+def load_svg(path, elements: str = "groups") -> Exemplar:
     try:
         with open(path, "rb") as f:
             data = f.read(MAX_BYTES + 1)
     except OSError as exc:
         raise InputError(f"cannot read {path}: {exc.strerror or exc}") from None
-    return parse_svg(data)
+    return parse_svg(data, elements)
 
 
 def _renamed_copy(node: ET.Element, suffix: str) -> ET.Element:
@@ -327,11 +365,12 @@ def _fmt(v: float) -> str:
 
 
 def to_svg(exemplar: Exemplar, placements: list[tuple[int, float, float]],
-           size: tuple[float, float]) -> str:
+           size: tuple[float, float], under: list[ET.Element] = (), clip: bool = False) -> str:
     """Serialize ``placements`` = [(element index, dx, dy)] (in drawing order) as SVG text.
 
     ``size`` is the output extent in the exemplar's user units; the output viewBox starts at the
-    exemplar's viewBox origin so untranslated elements land where they were.
+    exemplar's viewBox origin so untranslated elements land where they were. ``under`` nodes
+    (the background) are drawn first; ``clip`` clips everything to the canvas.
     """
     x0, y0 = exemplar.viewbox[:2]
     w, h = size
@@ -351,9 +390,21 @@ def to_svg(exemplar: Exemplar, placements: list[tuple[int, float, float]],
                 defs.extend(copy.deepcopy(list(d)))
             else:
                 defs.append(copy.deepcopy(d))
+    parent = root
+    if clip:
+        defs = root.find(f"{{{SVG_NS}}}defs")
+        defs = ET.SubElement(root, f"{{{SVG_NS}}}defs") if defs is None else defs
+        cp = ET.SubElement(defs, f"{{{SVG_NS}}}clipPath", {"id": "cvt-canvas"})
+        ET.SubElement(cp, f"{{{SVG_NS}}}rect", {"x": _fmt(x0), "y": _fmt(y0), "width": _fmt(w),
+                                               "height": _fmt(h)})
+        parent = ET.SubElement(root, f"{{{SVG_NS}}}g", {"clip-path": "url(#cvt-canvas)"})
+        parent.text = "\n"
+    for node in under:
+        parent.append(node)
+        node.tail = "\n"
     for k, (idx, dx, dy) in enumerate(placements):
         move = {"transform": f"translate({_fmt(dx)},{_fmt(dy)})"}
-        g = ET.SubElement(root, f"{{{SVG_NS}}}g", move)
+        g = ET.SubElement(parent, f"{{{SVG_NS}}}g", move)
         g.append(_renamed_copy(exemplar.elements[idx].node, f"-c{k}"))
         g.tail = "\n"
     root.text = "\n"
