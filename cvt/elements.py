@@ -67,15 +67,20 @@ def _rewrap(node: ET.Element, leaf: ET.Element) -> ET.Element:
     """``node`` with its innermost wrapped node replaced by ``leaf``."""
     if node is _inner(node):
         return leaf
-    top = copy.copy(node)
-    cur = top
+    top = _shallow(node)
+    cur, src = top, node
     while True:
-        child = cur[0]
+        child = src[0]
         if child is _inner(child):
-            cur[:] = [leaf]
+            cur.append(leaf)
             return top
-        cur[:] = [copy.copy(child)]
-        cur = cur[0]
+        cur.append(_shallow(child))
+        cur, src = cur[0], child
+
+
+def _shallow(node: ET.Element) -> ET.Element:
+    """A childless copy with its own attribute dict."""
+    return ET.Element(node.tag, dict(node.attrib))
 
 
 def _pieces(d: str) -> list[str]:
@@ -112,7 +117,8 @@ def _pieces(d: str) -> list[str]:
     groups: dict[int, list[int]] = {}
     for i, r in enumerate(roots):
         groups.setdefault(r, []).append(i)
-    return [" ".join(se.Path(subs[i]).d() for i in idx) for idx in groups.values()]
+    return [" ".join(se.Path(subs[i]).d(relative=False) for i in idx)
+            for idx in groups.values()]
 
 
 def _split_paths(nodes: list[ET.Element]) -> tuple[list[ET.Element], int]:
@@ -128,7 +134,7 @@ def _split_paths(nodes: list[ET.Element]) -> tuple[list[ET.Element], int]:
             continue
         split += 1
         for k, d in enumerate(parts):
-            piece = copy.copy(leaf)
+            piece = copy.deepcopy(leaf)
             piece.set("d", d)
             if leaf.get("id"):
                 piece.set("id", f"{leaf.get('id')}-p{k}")
@@ -176,3 +182,27 @@ def _open_wrapped(node: ET.Element, keep) -> list[ET.Element]:
     """Open the group inside ``node``'s wrappers; each child keeps those wrappers."""
     inner = _inner(node)
     return [_rewrap(node, c) if node is not inner else c for c in _open(inner, keep)]
+
+
+def open_layers(pairs: list[tuple[ET.Element, list]], spans, read, keep, depth: int = 3
+                ) -> tuple[list[tuple[ET.Element, list]], int]:
+    """Open groups of several drawable children whose geometry ``spans(shapes)`` the canvas
+    (``auto``: such a group is a layer, a ground or a whole pattern, not a motif). ``pairs`` are
+    (node, shapes); ``read(node)`` gives a node's shapes. Returns new pairs and the count."""
+    opened = 0
+    for _ in range(depth):
+        out, changed = [], False
+        for node, shapes in pairs:
+            inner = _inner(node)
+            kids = [c for c in inner if isinstance(c.tag, str) and keep(c)]
+            if shapes and _is_group(inner) and len(kids) >= 2 and spans(shapes):
+                new, _ = _split_paths(_open_wrapped(node, keep))
+                out += [(n, read(n)) for n in new]
+                opened += 1
+                changed = True
+            else:
+                out.append((node, shapes))
+        pairs = out
+        if not changed:
+            break
+    return pairs, opened

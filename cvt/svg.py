@@ -19,8 +19,8 @@ from dataclasses import dataclass, field
 import numpy as np
 import svgelements as se
 
-from cvt.background import split_background
-from cvt.elements import element_nodes
+from cvt.background import covers, split_background
+from cvt.elements import element_nodes, open_layers
 from neuraltex.errors import InputError
 
 SVG_NS = "http://www.w3.org/2000/svg"
@@ -51,6 +51,17 @@ class Shape:
     evenodd: bool = False
 
 
+def _box(shapes: list[Shape]) -> np.ndarray:
+    """(4,) xmin, ymin, xmax, ymax of shapes, incl. half stroke width."""
+    boxes = []
+    for s in shapes:
+        hw = s.stroke_width / 2
+        for r in s.rings:
+            boxes.append(np.r_[r.min(0) - hw, r.max(0) + hw])
+    b = np.stack(boxes)
+    return np.r_[b[:, :2].min(0), b[:, 2:].max(0)]
+
+
 @dataclass
 class Element:
     """A top-level drawable node: geometry for sampling plus its original XML."""
@@ -61,13 +72,7 @@ class Element:
 
     @property
     def bbox(self) -> np.ndarray:  # (4,) xmin, ymin, xmax, ymax incl. half stroke width
-        boxes = []
-        for s in self.shapes:
-            hw = s.stroke_width / 2
-            for r in s.rings:
-                boxes.append(np.r_[r.min(0) - hw, r.max(0) + hw])
-        b = np.stack(boxes)
-        return np.r_[b[:, :2].min(0), b[:, 2:].max(0)]
+        return _box(self.shapes)
 
     @property
     def markup(self) -> str:
@@ -259,15 +264,19 @@ def parse_svg(data: bytes, elements: str = "groups") -> Exemplar:
     defs = defs + _nested_defs(tops)
     by_id = _ids(defs + tops)
     styles = [n for d in defs for n in d.iter() if _local(n.tag) == "style"]
-    elements = []
-    for node in candidates:
+
+    def read(node: ET.Element) -> list[Shape]:
         hidden = styles + [by_id[i] for i in _reference_closure(node, by_id)]
         try:
-            shapes = _shapes_of(_mini_doc(root, hidden, node))
+            return _shapes_of(_mini_doc(root, hidden, node))
         except (ValueError, TypeError, IndexError, AttributeError, ZeroDivisionError) as exc:
             raise InputError(f"cannot read element <{_local(node.tag)}>: {exc}") from None
-        if shapes:
-            elements.append(Element(len(elements), node, shapes))
+
+    pairs = [(node, read(node)) for node in candidates]
+    if elements == "auto":  # a group spanning the canvas is a layer of the file, not a motif
+        pairs, opened = open_layers(pairs, lambda sh: covers(_box(sh), box), read, _drawable)
+        note += f", {opened} canvas-wide group(s) opened" if opened else ""
+    elements = [Element(k, n, sh) for k, (n, sh) in enumerate(p for p in pairs if p[1])]
     if not elements:
         if unsupported:
             raise InputError("SVG has only text or raster <image> content; nothing to synthesize")
@@ -365,12 +374,14 @@ def _fmt(v: float) -> str:
 
 
 def to_svg(exemplar: Exemplar, placements: list[tuple[int, float, float]],
-           size: tuple[float, float], under: list[ET.Element] = (), clip: bool = False) -> str:
+           size: tuple[float, float], under: list[ET.Element] = (), clip: str | None = None,
+           clip_all: bool = False) -> str:
     """Serialize ``placements`` = [(element index, dx, dy)] (in drawing order) as SVG text.
 
     ``size`` is the output extent in the exemplar's user units; the output viewBox starts at the
     exemplar's viewBox origin so untranslated elements land where they were. ``under`` nodes
-    (the background) are drawn first; ``clip`` clips everything to the canvas.
+    (the background) are drawn first, clipped to the path ``clip`` (a ``d``) when given;
+    ``clip_all`` clips the elements to it too.
     """
     x0, y0 = exemplar.viewbox[:2]
     w, h = size
@@ -383,24 +394,22 @@ def to_svg(exemplar: Exemplar, placements: list[tuple[int, float, float]],
     })
     for k, v in exemplar.root_attrs.items():
         root.set(k, v)
-    if exemplar.defs:
-        defs = ET.SubElement(root, f"{{{SVG_NS}}}defs")
-        for d in exemplar.defs:
-            if _local(d.tag) == "defs":
-                defs.extend(copy.deepcopy(list(d)))
-            else:
-                defs.append(copy.deepcopy(d))
-    parent = root
-    if clip:
-        defs = root.find(f"{{{SVG_NS}}}defs")
-        defs = ET.SubElement(root, f"{{{SVG_NS}}}defs") if defs is None else defs
-        cp = ET.SubElement(defs, f"{{{SVG_NS}}}clipPath", {"id": "cvt-canvas"})
-        ET.SubElement(cp, f"{{{SVG_NS}}}rect", {"x": _fmt(x0), "y": _fmt(y0), "width": _fmt(w),
-                                               "height": _fmt(h)})
-        parent = ET.SubElement(root, f"{{{SVG_NS}}}g", {"clip-path": "url(#cvt-canvas)"})
-        parent.text = "\n"
+    defs = ET.SubElement(root, f"{{{SVG_NS}}}defs")
+    for d in exemplar.defs:
+        if _local(d.tag) == "defs":
+            defs.extend(copy.deepcopy(list(d)))
+        else:
+            defs.append(copy.deepcopy(d))
+    parent = back = root
+    if clip is not None:
+        cp = ET.SubElement(defs, f"{{{SVG_NS}}}clipPath", {"id": "cvt-clip"})
+        ET.SubElement(cp, f"{{{SVG_NS}}}path", {"d": clip})
+        back = ET.SubElement(root, f"{{{SVG_NS}}}g", {"clip-path": "url(#cvt-clip)"})
+        parent = back if clip_all else root
+    if not len(defs):
+        root.remove(defs)
     for node in under:
-        parent.append(node)
+        back.append(node)
         node.tail = "\n"
     for k, (idx, dx, dy) in enumerate(placements):
         move = {"transform": f"translate({_fmt(dx)},{_fmt(dy)})"}
