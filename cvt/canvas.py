@@ -103,6 +103,8 @@ def repair_density(placed: list[Placed], boxes: np.ndarray, kinds: np.ndarray,
 
     gap = missing()
     for _ in range(int(sum(max(v, 0) for v in gap.values())) + 1):
+        if not gap:
+            break
         k = max(gap, key=gap.get)
         if gap[k] < max(0.5, DENSITY_TOL * want[k]):
             break
@@ -120,6 +122,40 @@ def repair_density(placed: list[Placed], boxes: np.ndarray, kinds: np.ndarray,
         if -g > max(0.5, DENSITY_TOL * want[k]):
             placed = _thin(placed, boxes, kinds, k, int(round(-g)), out_box, inside)
     return placed
+
+
+def overlap_limits(boxes: np.ndarray, kinds: np.ndarray, cut: np.ndarray,
+                   margin: float = 0.05) -> np.ndarray:
+    """Largest box IoU of two whole exemplar elements, per kind pair, plus ``margin``.
+    Shape: -> (K, K)."""
+    from cvt.reconstruction import box_iou
+
+    n = int(kinds.max()) + 1
+    iou = box_iou(boxes, boxes)
+    np.fill_diagonal(iou, 0)
+    iou[cut] = iou[:, cut] = 0
+    lim = np.zeros((n, n))
+    np.maximum.at(lim, (kinds[:, None].repeat(len(kinds), 1), kinds[None].repeat(len(kinds), 0)),
+                  iou)
+    return lim + margin
+
+
+def drop_overlaps(placed: list[Placed], boxes: np.ndarray, kinds: np.ndarray,
+                  limits: np.ndarray) -> list[Placed]:
+    """Drop copies overlapping an earlier kept copy more than any two exemplar elements of
+    those kinds overlap (stacked duplicates, clashes the exemplar never shows)."""
+    from cvt.reconstruction import box_iou
+
+    if len(placed) < 2:
+        return placed
+    iou = box_iou(moved_boxes(placed, boxes), moved_boxes(placed, boxes))
+    kk = kinds[[p[0] for p in placed]]
+    bad = iou > limits[kk[:, None], kk[None, :]]
+    np.fill_diagonal(bad, False)
+    keep = np.zeros(len(placed), bool)
+    for i in range(len(placed)):
+        keep[i] = not (bad[i] & keep).any()
+    return [p for p, k in zip(placed, keep, strict=True) if k]
 
 
 def _centres(placed: list[Placed], boxes: np.ndarray) -> np.ndarray:
@@ -171,16 +207,20 @@ def _insert(placed: list[Placed], p: Placed, kinds: np.ndarray) -> None:
 
 
 def _thin(placed, boxes, kinds, k, n, out_box, inside) -> list[Placed]:
-    """Drop the n copies of kind k (centre on the canvas) that overlap same-kind copies most."""
+    """Drop the n copies of kind k (centre on the canvas) that overlap same-kind copies most,
+    elements touching others (pairs) last."""
+    from cvt.companions import touches
+
     on = np.nonzero(_centred(placed, boxes, kinds, k, out_box, inside))[0]
     mb = moved_boxes([placed[i] for i in on], boxes)
     inter = np.clip(np.minimum(mb[:, None, 2:], mb[None, :, 2:])
                     - np.maximum(mb[:, None, :2], mb[None, :, :2]), 0, None).prod(-1)
     np.fill_diagonal(inter, 0)
-    drop = set()
+    hosting = touches(moved_boxes(placed, boxes)).any(0)[on]  # keep elements in pairs
+    alive = np.ones(len(on), bool)
     for _ in range(min(n, len(on))):
-        j = int(np.argmax(inter.sum(1)))
-        drop.add(int(on[j]))
-        inter[j, :] = inter[:, j] = 0
-        inter[j, j] = -np.inf
+        score = (inter * alive[None]).sum(1) - 1e30 * hosting
+        score[~alive] = -np.inf
+        alive[int(np.argmax(score))] = False
+    drop = set(on[~alive].tolist())
     return [p for i, p in enumerate(placed) if i not in drop]

@@ -8,7 +8,8 @@ canvas (by its centre), at least ``MIN_SCORE`` find a same-kind element there (w
 The cell's motifs are one representative per orbit (whole elements nearest the centre), and the
 lattice is accepted only when it also predicts the exemplar: copies of the representatives
 centred on the canvas exist in it, and every fragment cut by the border is part of such a copy.
-Irregular exemplars fail these tests and go to the seed's method.
+With one period only (stripes whose elements span the canvas), the canvas side across it is the
+second. Irregular exemplars fail these tests and go to the seed's method.
 """
 
 from __future__ import annotations
@@ -99,8 +100,11 @@ def detect_lattice(centers: np.ndarray, kinds: np.ndarray, boxes: np.ndarray, wh
             elif abs(_cross(periods[0], t)) >= 0.2 * np.linalg.norm(periods[0]) * np.linalg.norm(t):
                 periods.append(t)
                 break
-    if len(periods) < 2:
+    if not periods:
         return None
+    if len(periods) == 1:  # stripes: elements span the canvas, which repeats as a whole
+        sides = [np.array([viewbox[2], 0.0]), np.array([0.0, viewbox[3]])]
+        periods.append(max(sides, key=lambda v: abs(_cross(periods[0], v)) / np.linalg.norm(v)))
     a, b = periods
     reps = _representatives(c, k, a, b, tol)
     if len(reps) > 0.5 * len(c):

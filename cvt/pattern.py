@@ -17,7 +17,15 @@ from dataclasses import dataclass
 import numpy as np
 
 from cvt.baselines import run_method
-from cvt.canvas import composites, keep_on_canvas, kind_rates, repair_density
+from cvt.canvas import (
+    composites,
+    drop_overlaps,
+    keep_on_canvas,
+    kind_rates,
+    overlap_limits,
+    repair_density,
+)
+from cvt.companions import companion_kinds, drop_orphans
 from cvt.domain import Domain
 from cvt.kinds import cut_mask, element_kinds
 from cvt.lattice import detect_lattice, lattice_copies
@@ -51,9 +59,13 @@ def synthesize_pattern(ex: Exemplar, size: tuple[float, float], cfg: SynthesisCo
     out_box = (vx, vy, vx + size[0], vy + size[1])
     boxes = np.stack([e.bbox for e in ex.elements])  # (E, 4)
     cut = cut_mask(ex.elements, ex.viewbox)
+    notes = []
+    if cut.all():  # nothing whole to copy: the cut pieces are all the exemplar has
+        cut[:] = False
+        notes.append("every element is cut by the border: pieces used as elements")
     kinds = element_kinds(ex.elements, cut)
     centers = (boxes[:, :2] + boxes[:, 2:]) / 2
-    notes, res, lat = [], None, None
+    res, lat = None, None
     if method == "random":
         res = run_method(method, ex, size, cfg)
         return Pattern(_placed(res), size, notes, res)
@@ -76,8 +88,13 @@ def synthesize_pattern(ex: Exemplar, size: tuple[float, float], cfg: SynthesisCo
     if opts.density and (lat is None or opts.domain is not None or opts.tileable):
         area = opts.domain.area if opts.domain is not None else size[0] * size[1]
         rates = kind_rates(boxes, kinds, cut, ex.viewbox)
-        placed = repair_density(placed, boxes, kinds, rates, composites(boxes, cut), out_box,
-                                area, np.random.default_rng(cfg.seed), inside)
+        pairs = companion_kinds(boxes, kinds, cut)
+        placed = drop_overlaps(placed, boxes, kinds, overlap_limits(boxes, kinds, cut))
+        rng = np.random.default_rng(cfg.seed)
+        for _ in range(2):  # thinning can orphan a companion: drop it and repair again
+            placed = drop_orphans(placed, boxes, kinds, pairs)
+            placed = repair_density(placed, boxes, kinds, rates, composites(boxes, cut),
+                                    out_box, area, rng, inside)
     if opts.tileable:
         from cvt.tileable import wrap_around
 

@@ -59,7 +59,8 @@ def run_real(args, root: Path) -> None:
             r.update(name=path.stem, wall=wall, peak=peak)
             rows.append(r)
             cells = [" / ".join(_fmt(r["d"][k][m]) for k in ("out", "R1", "R2"))
-                     + ("" if r["verdict"][m] else " ✗") for m in PASS_METRICS]
+                     + ("" if r["verdict"][m] else " ✗") + (" =" if m in r["tied"] else "")
+                     for m in PASS_METRICS]
             line = [r["name"], str(r["elements"]), *cells, _fmt(r["pass"]), _fmt(r["density"]),
                     _fmt(r["integrity"]), _fmt(r["pairs"]), f"{wall:.1f}", f"{peak:.0f}"]
             lines.append("| " + " | ".join(line) + " |")
@@ -72,7 +73,8 @@ def run_real(args, root: Path) -> None:
 
 def totals(rows: list[dict]) -> str:
     n = len(rows)
-    per = ", ".join(f"{m} {sum(r['verdict'][m] for r in rows)}/{n}" for m in PASS_METRICS)
+    per = ", ".join(f"{m} {sum(r['verdict'][m] for r in rows)}/{n} "
+                    f"({sum(m in r['tied'] for r in rows)} not separating)" for m in PASS_METRICS)
     dens = sum(r["density"] <= 0.15 for r in rows)
     integ = sum(r["integrity"] >= 0.95 for r in rows)
     pairs = [r["pairs"] for r in rows if not math.isnan(r["pairs"])]
