@@ -23,6 +23,7 @@ MIN_SCORE = 0.9
 MIN_EXPLAINED = 0.85
 MAX_CANDIDATES = 4000
 PROBE = 48  # elements a candidate is first tried on
+TOL = 0.2  # match distance, in nearest-neighbour distances (near-periodic: jitter allowed)
 
 
 @dataclass(frozen=True)
@@ -85,7 +86,7 @@ def detect_lattice(centers: np.ndarray, kinds: np.ndarray, boxes: np.ndarray, wh
         return None
     c, k = centers[w_idx], kinds[w_idx]
     nn = cKDTree(c).query(c, k=2)[0][:, 1]
-    tol = max(0.12 * float(np.median(nn)), 1e-6 * max(viewbox[2:]))
+    tol = max(TOL * float(np.median(nn)), 1e-6 * max(viewbox[2:]))
     trees = {int(q): cKDTree(c[k == q]) for q in np.unique(k)}
     periods = []
     probe = np.linspace(0, len(c) - 1, min(PROBE, len(c))).astype(int)
@@ -93,6 +94,7 @@ def detect_lattice(centers: np.ndarray, kinds: np.ndarray, boxes: np.ndarray, wh
         if len(c) > PROBE and _score(t, c[probe], k[probe], viewbox, trees,
                                      tol)[0] < MIN_SCORE - 0.15:
             continue
+        t = _refine(t, c, k, trees, tol)
         score, n = _score(t, c, k, viewbox, trees, tol)
         if score >= MIN_SCORE and n >= max(3, 0.2 * len(c)):
             if not periods:
@@ -114,6 +116,18 @@ def detect_lattice(centers: np.ndarray, kinds: np.ndarray, boxes: np.ndarray, wh
     if explained < MIN_EXPLAINED:
         return None
     return Lattice(a, b, lat.reps, explained)
+
+
+def _refine(t, c, k, trees, tol) -> np.ndarray:
+    """The candidate moved to the mean offset of the pairs it matches (jitter averages out)."""
+    offsets = []
+    for q, tree in trees.items():
+        sel = c[k == q]
+        d, j = tree.query(sel + t, distance_upper_bound=tol)
+        ok = np.isfinite(d)
+        offsets.append(tree.data[j[ok]] - sel[ok])
+    off = np.concatenate(offsets)
+    return off.mean(0) if len(off) else t
 
 
 def _cross(a: np.ndarray, b: np.ndarray) -> float:
