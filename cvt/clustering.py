@@ -3,8 +3,8 @@
 Energy (seed 000 eq. 9) E = w_l E_l + w_s E_s. The link energy (seed 000 eqs. 12-13) sums, over
 ordered pairs of output samples closer than lambda delta whose link confidence l is defined
 (seed 000 eqs. 10-11), +-(1 - 2l): a pair inside one cluster costs 1 - 2l, a pair across
-clusters 2l - 1. So joining a pair changes E_l by c = 4 (1 - 2l) (two ordered pairs, sign flip). The shape energy
-(seed 000 eq. 14) sums E'_s over clusters (shape_energy.py).
+clusters 2l - 1. So joining a pair changes E_l by c = 4 (1 - 2l) (two ordered pairs, sign
+flip). The shape energy (seed 000 eq. 14) sums E'_s over clusters (shape_energy.py).
 
 Greedy optimization (sec. 6.5.2) with two priority queues, both with lazy deletion (an entry
 whose samples or clusters changed since it was queued is dropped when popped, and fresh
