@@ -38,7 +38,7 @@ from cvt.metrics import Layout, layering, patch_swd, pcf_distance
 from cvt.svg import SVG_NS, Exemplar, to_svg
 
 PASS_METRICS = ("pcf", "swd", "depth", "degree", "layering")
-PIXELS = 256  # render width of the exemplar; outputs at the same pixels per user unit
+PIXELS = 128  # render width of the exemplar; outputs at the same pixels per user unit
 _SUFFIX = re.compile(r"-c\d+\b")
 
 
@@ -218,3 +218,17 @@ def judge(ex: Exemplar, out_svg: str, size, seed: int = 0) -> dict:
     return {"d": d, "verdict": verdict, "pass": all(verdict.values()), "tied": tied,
             "density": density_error(ex, kinds, cut, lay), "integrity": integrity(cut, lay),
             "pairs": kept, "elements": len(lay.placements)}
+
+
+def seam_swd(image: np.ndarray, band: int = 8) -> tuple[float, float]:
+    """Patch SWD (x 1000) to the tile itself of the strips across the seams of the image tiled
+    2 x 2, and of the same strips through the middle of a tile. Shape: (H, W, 3)."""
+    big = np.tile(image, (2, 2, 1))  # (2H, 2W, 3)
+    h, w = image.shape[:2]
+
+    def strips(y: int, x: int) -> list[np.ndarray]:
+        return [big[:, x - band : x + band], big[y - band : y + band]]
+
+    seam = np.mean([patch_swd(s, image) for s in strips(h, w)])
+    inner = np.mean([patch_swd(s, image) for s in strips(h // 2, w // 2)])
+    return float(seam), float(inner)

@@ -13,7 +13,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from cvt.judge import PASS_METRICS, judge
+from cvt.judge import PASS_METRICS, PIXELS, judge, seam_swd
 from cvt.svg import load_svg
 from neuraltex.fileio import write_text_atomic
 
@@ -34,6 +34,19 @@ def synthesize(path: Path, out: Path, scale: float, seed: int, method: str, extr
     if os.waitstatus_to_exitcode(status):
         raise RuntimeError(f"{path.name}: {text.strip()}")
     return wall, usage.ru_maxrss / 1024, text
+
+
+def _render(svg: str, size, ex):
+    import io
+
+    import numpy as np
+    import resvg_py
+    from PIL import Image
+
+    w = round(size[0] * PIXELS / ex.viewbox[2])
+    png = resvg_py.svg_to_bytes(svg_string=svg, background="white", skip_system_fonts=True,
+                                width=w)
+    return np.asarray(Image.open(io.BytesIO(bytes(png))).convert("RGB"), np.float32) / 255
 
 
 def _fmt(v) -> str:
@@ -57,6 +70,11 @@ def run_real(args, root: Path) -> None:
                                        root)
             r = judge(ex, out.read_text(), size)
             r.update(name=path.stem, wall=wall, peak=peak)
+            if "--tileable" in args.extra:
+                seam, inner = seam_swd(_render(out.read_text(), size, ex))
+                r["seam"] = seam / max(inner, 1e-9)
+                print(f"{path.stem}: tiled 2 x 2, seam SWD {seam:.3f}, interior {inner:.3f}, "
+                      f"ratio {r['seam']:.2f}", flush=True)
             rows.append(r)
             cells = [" / ".join(_fmt(r["d"][k][m]) for k in ("out", "R1", "R2"))
                      + ("" if r["verdict"][m] else " ✗") + (" =" if m in r["tied"] else "")
@@ -78,6 +96,9 @@ def totals(rows: list[dict]) -> str:
     dens = sum(r["density"] <= 0.15 for r in rows)
     integ = sum(r["integrity"] >= 0.95 for r in rows)
     pairs = [r["pairs"] for r in rows if not math.isnan(r["pairs"])]
+    seams = [r["seam"] for r in rows if "seam" in r]
+    seam = (f"; tileable seam / interior SWD: within 1.1 on {sum(v <= 1.1 for v in seams)}/"
+            f"{len(seams)}, median {sorted(seams)[len(seams) // 2]:.2f}" if seams else "")
     slow = max(rows, key=lambda r: r["wall"])
     big = max(rows, key=lambda r: r["peak"])
     return (f"Totals over {n} exemplars: closer to the tiling than to random on all five "
@@ -85,4 +106,4 @@ def totals(rows: list[dict]) -> str:
             f"{dens}/{n}; integrity >= 0.95: {integ}/{n}; clustered pairs kept (worst pair "
             f"per exemplar, {len(pairs)} exemplars with pairs): min {min(pairs, default=0):.2f}, "
             f"mean {sum(pairs) / max(len(pairs), 1):.2f}; slowest {slow['name']} "
-            f"{slow['wall']:.1f} s; largest {big['name']} {big['peak']:.0f} MB.")
+            f"{slow['wall']:.1f} s; largest {big['name']} {big['peak']:.0f} MB{seam}.")
