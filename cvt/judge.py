@@ -5,8 +5,8 @@ exemplar tiled 2 x 2; both over the same background, at the output's size. For e
 (a distance to the exemplar) the output passes when it is closer to R2's value than to R1's,
 D(out) <= (D(R1) + D(R2)) / 2. Where the references do not separate (D(R1) <= D(R2): random
 placement is as exemplar-like as the tiling on that metric, e.g. overlap on a sparse layout
-with no overlaps), it passes when it is no worse than the tiling, D(out) <= D(R2); the count of
-such cases is reported. Metrics, read from the SVG files alone (copies are recognized by their
+with no overlaps), the metric cannot tell good from bad there and the output passes when it
+lies within the references' range, D(out) <= D(R2); such cases are counted and reported. Metrics, read from the SVG files alone (copies are recognized by their
 markup, kinds by cvt.kinds):
 
 * ``pcf``: pair-correlation distance of element centres per kind pair (cvt.metrics);

@@ -130,13 +130,30 @@ def inkscape(src: Path, pid: str, k: int) -> None:
     layer = ET.SubElement(root, f"{{{SVG}}}g", {
         "{http://www.inkscape.org/namespaces/inkscape}groupmode": "layer",
         "{http://www.inkscape.org/namespaces/inkscape}label": "pattern"})
-    for i in range(reps):
+    seen = set()  # a motif crossing the tile edge sits in both tiles: the browser clips each
+    for i in range(reps):  # tile, flattened tiles would stack the two copies, so keep one
         for j in range(reps):
             for child in pat:
+                key = _spot(child, i * tw / s, j * th / s)
+                if key is not None and key in seen:
+                    continue
+                seen.add(key)
                 g = ET.SubElement(layer, f"{{{SVG}}}g", {
                     "transform": f"translate({i * tw:g},{j * th:g}) scale({s:g})"})
                 g.append(child)
     _write(f"inkscape_{pid.replace('-', '_').lower()}", root)
+
+
+def _spot(child: ET.Element, dx: float, dy: float) -> tuple | None:
+    """Where a circle or rectangle of a pattern tile lands (tile units), for deduplication."""
+    tag, a = child.tag.rsplit("}", 1)[-1], child.attrib
+    if tag == "circle":
+        return ("c", round(float(a.get("cx", 0)) + dx, 3), round(float(a.get("cy", 0)) + dy, 3),
+                a.get("r"), a.get("style"), a.get("fill"))
+    if tag == "rect":
+        return ("r", round(float(a.get("x", 0)) + dx, 3), round(float(a.get("y", 0)) + dy, 3),
+                a.get("width"), a.get("height"), a.get("style"), a.get("fill"))
+    return None
 
 
 def emoji_layout(src: Path, name: str, spec, seed: int) -> None:
