@@ -6,8 +6,9 @@ exemplar tiled 2 x 2; both over the same background, at the output's size. For e
 D(out) <= (D(R1) + D(R2)) / 2. Where the references do not separate (D(R1) <= D(R2): random
 placement is as exemplar-like as the tiling on that metric, e.g. overlap on a sparse layout
 with no overlaps), the metric cannot tell good from bad there and the output passes when it
-lies within the references' range, D(out) <= D(R2); such cases are counted and reported. Metrics, read from the SVG files alone (copies are recognized by their
-markup, kinds by cvt.kinds):
+lies within the references' range, D(out) <= D(R2); such cases are counted and reported.
+Metrics, read from the SVG files alone (copies are recognized by their markup, kinds by
+cvt.kinds):
 
 * ``pcf``: pair-correlation distance of element centres per kind pair (cvt.metrics);
 * ``swd``: patch SWD (x 1000) of the renderings, at one pixel scale for all;
