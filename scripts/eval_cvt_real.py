@@ -43,7 +43,7 @@ def _render(svg: str, size, ex):
     import resvg_py
     from PIL import Image
 
-    w = round(size[0] * PIXELS / ex.viewbox[2])
+    w = round(size[0] * 2 * PIXELS / ex.viewbox[2])
     png = resvg_py.svg_to_bytes(svg_string=svg, background="white", skip_system_fonts=True,
                                 width=w)
     return np.asarray(Image.open(io.BytesIO(bytes(png))).convert("RGB"), np.float32) / 255
