@@ -64,42 +64,55 @@ def synthesize_pattern(ex: Exemplar, size: tuple[float, float], cfg: SynthesisCo
         cut[:] = False
         notes.append("every element is cut by the border: pieces used as elements")
     kinds = element_kinds(ex.elements, cut)
-    centers = (boxes[:, :2] + boxes[:, 2:]) / 2
-    res, lat = None, None
     if method == "random":
         res = run_method(method, ex, size, cfg)
         return Pattern(_placed(res), size, notes, res)
-    if opts.lattice:
-        lat = detect_lattice(centers, kinds, boxes, ~cut, ex.viewbox)
-    if lat is not None:
-        placed = lattice_copies(lat, boxes, out_box)
-        notes.append(f"lattice: periods ({lat.a[0]:.4g}, {lat.a[1]:.4g}) and ({lat.b[0]:.4g}, "
-                     f"{lat.b[1]:.4g}), {len(lat.reps)} motif(s) per cell, explains "
-                     f"{lat.explained:.0%} of the exemplar")
-    elif (~cut).sum() >= 2:
-        res = run_method(method, ex, size, cfg, on_iteration)
-        placed = _placed(res)
-        notes.append(f"no lattice: {method} synthesis")
-    else:
-        placed = []
-        notes.append("fewer than two whole elements: placed at the exemplar's density")
+    placed, res, lat = _arrange(ex, size, cfg, method, opts, boxes, cut, kinds, notes,
+                                on_iteration)
     inside = opts.domain.contains if opts.domain is not None else None
     placed = keep_on_canvas(placed, boxes, cut, out_box, inside)
     if opts.density and (lat is None or opts.domain is not None or opts.tileable):
         area = opts.domain.area if opts.domain is not None else size[0] * size[1]
-        rates = kind_rates(boxes, kinds, cut, ex.viewbox)
-        pairs = companion_kinds(boxes, kinds, cut)
-        placed = drop_overlaps(placed, boxes, kinds, overlap_limits(boxes, kinds, cut))
-        rng = np.random.default_rng(cfg.seed)
-        for _ in range(2):  # thinning can orphan a companion: drop it and repair again
-            placed = drop_orphans(placed, boxes, kinds, pairs)
-            placed = repair_density(placed, boxes, kinds, rates, composites(boxes, cut),
-                                    out_box, area, rng, inside)
+        placed = _repair(placed, ex, boxes, cut, kinds, out_box, area, cfg.seed, inside)
     if opts.tileable:
         from cvt.tileable import wrap_around
 
         placed = wrap_around(placed, boxes, out_box)
     return Pattern(placed, size, notes, res, lat)
+
+
+def _arrange(ex, size, cfg, method, opts, boxes, cut, kinds, notes, on_iteration):
+    """Placements from the lattice, the seed's method, or none. Returns (placed, result,
+    lattice) and appends what it did to ``notes``."""
+    vx, vy = ex.viewbox[:2]
+    lat = None
+    if opts.lattice:
+        centers = (boxes[:, :2] + boxes[:, 2:]) / 2
+        lat = detect_lattice(centers, kinds, boxes, ~cut, ex.viewbox)
+    if lat is not None:
+        notes.append(f"lattice: periods ({lat.a[0]:.4g}, {lat.a[1]:.4g}) and ({lat.b[0]:.4g}, "
+                     f"{lat.b[1]:.4g}), {len(lat.reps)} motif(s) per cell, explains "
+                     f"{lat.explained:.0%} of the exemplar")
+        return lattice_copies(lat, boxes, (vx, vy, vx + size[0], vy + size[1])), None, lat
+    if (~cut).sum() >= 2:
+        res = run_method(method, ex, size, cfg, on_iteration)
+        notes.append(f"no lattice: {method} synthesis")
+        return _placed(res), res, None
+    notes.append("fewer than two whole elements: placed at the exemplar's density")
+    return [], None, None
+
+
+def _repair(placed, ex, boxes, cut, kinds, out_box, area, seed, inside):
+    """No clashes the exemplar never shows, companions paired, each kind at its density."""
+    rates = kind_rates(boxes, kinds, cut, ex.viewbox)
+    pairs = companion_kinds(boxes, kinds, cut)
+    placed = drop_overlaps(placed, boxes, kinds, overlap_limits(boxes, kinds, cut))
+    rng = np.random.default_rng(seed)
+    for _ in range(2):  # thinning can orphan a companion: drop it and repair again
+        placed = drop_orphans(placed, boxes, kinds, pairs)
+        placed = repair_density(placed, boxes, kinds, rates, composites(boxes, cut), out_box,
+                                area, rng, inside)
+    return placed
 
 
 def _placed(res: SynthesisResult) -> list[tuple[int, float, float]]:
