@@ -4,7 +4,8 @@
    Everything else goes to the seed's synthesis (``method``, cvt.baselines).
 2. The canvas (cvt.canvas): fragments only where the border cuts them, nothing entirely off
    the canvas or the domain, each kind at the exemplar's density.
-3. ``tileable``: the result wraps around (cvt.tileable).
+3. ``tileable``: the result wraps around (cvt.tileable); the seed's method then runs on a
+   canvas ``TILE_MARGIN`` larger on every side and the window is taken from its interior.
 
 The background (cvt.background) is drawn under it all by :func:`pattern_svg`.
 """
@@ -32,6 +33,8 @@ from cvt.lattice import detect_lattice, lattice_copies
 from cvt.reconstruction import Placement
 from cvt.svg import Exemplar, to_svg
 from cvt.synthesis import SynthesisConfig, SynthesisResult
+
+TILE_MARGIN = 0.25  # extra border synthesized around a tileable output, in exemplar sizes
 
 
 @dataclass(frozen=True)
@@ -95,9 +98,12 @@ def _arrange(ex, size, cfg, method, opts, boxes, cut, kinds, notes, on_iteration
                      f"{lat.explained:.0%} of the exemplar")
         return lattice_copies(lat, boxes, (vx, vy, vx + size[0], vy + size[1])), None, lat
     if (~cut).sum() >= 2:
-        res = run_method(method, ex, size, cfg, on_iteration)
+        # A tileable output is cut from the interior of a larger one: the canvas border of a
+        # synthesis is packed differently, and the wrap-around would bring it to the seam.
+        m = TILE_MARGIN * ex.size if opts.tileable else 0.0
+        res = run_method(method, ex, (size[0] + 2 * m, size[1] + 2 * m), cfg, on_iteration)
         notes.append(f"no lattice: {method} synthesis")
-        return _placed(res), res, None
+        return [(e, dx - m, dy - m) for e, dx, dy in _placed(res)], res, None
     notes.append("fewer than two whole elements: placed at the exemplar's density")
     return [], None, None
 
