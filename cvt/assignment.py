@@ -34,7 +34,7 @@ def _votes(out_n: int, m: Matches, in_pos: torch.Tensor):
 def assign_positions(pos: torch.Tensor, m: Matches, in_pos: torch.Tensor, mu: float = 0.05,
                      huber: float | None = None, iters: int = 80,
                      tol: float = 1e-12) -> torch.Tensor:
-    """Least-squares positions (eq. 18). Shape: pos (N, 2) -> (N, 2).
+    """Least-squares positions (seed 000 eq. 18). Shape: pos (N, 2) -> (N, 2).
 
     Solves (L + mu I) p = B^T W w + mu p_old by conjugate gradients, L the weighted Laplacian
     of the vote edges as a sparse CSR matrix. With ``huber`` (a length, e.g. delta) a vote
@@ -123,10 +123,11 @@ def add_missing(out: Samples, m: Matches, inp: Samples, in_nbr: torch.Tensor, de
         cell[:, 1] - cell[:, 1].min())
     uniq, inv, n_votes = torch.unique(key, return_inverse=True, return_counts=True)
     place = torch.zeros(len(uniq), 2, dtype=p.dtype).index_add_(0, inv, p) / n_votes[:, None]
-    # eq. 16 counts neighborhoods, so a neighborhood voting twice for one place counts once
+    # seed 001 eq. 16 counts neighborhoods, so a neighborhood voting twice for one place counts once
     voter = torch.unique(inv * len(out) + s_o)  # distinct (place, voting center) pairs
     counts = torch.bincount(voter // len(out), minlength=len(uniq))
-    # Overlapping output neighborhoods: output samples within r of the place (eq. 16 denominator).
+    # Overlapping output neighborhoods: output samples within r of the place (seed 001 eq. 16
+    # denominator).
     near = torch.cdist(place, out.pos)  # (P, N)
     overlap = (near <= radius).sum(1).clamp_min(1)
     xi = counts / overlap

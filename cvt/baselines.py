@@ -3,7 +3,8 @@
 * ``full``: search, assignment, greedy clustering step, filtering, depth order.
 * ``no-clustering``: fixed cluster ids (Ma et al. 2011-like), i.e. part 1 of this code base as
   shipped: no clustering step, no depth order or filtering, stacked copies dropped by the
-  ``merge_duplicates`` stopgap.
+  :func:`merge_duplicates` stopgap after the last level (this baseline's own step; the core
+  loop does not know it).
 * ``spectral``: the paper's comparison baseline (sec. 7.2): each clustering step is spectral
   clustering of the link-confidence graph into |O| / |I| * |{C_i}| clusters; reconstruction,
   filtering and depth order as in the full method.
@@ -20,6 +21,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 if TYPE_CHECKING:  # the CLI reads METHODS without paying for torch
+    from cvt.reconstruction import Placement
     from cvt.svg import Exemplar
     from cvt.synthesis import SynthesisConfig, SynthesisResult
 
@@ -32,8 +34,7 @@ def method_config(method: str, base: SynthesisConfig) -> SynthesisConfig:
     if method == "full":
         return base
     if method == "no-clustering":
-        return replace(base, clustering="none", depth=False, filter_shapes=False,
-                       merge_duplicates=True)
+        return replace(base, clustering="none", depth=False, filter_shapes=False)
     if method == "spectral":
         return replace(base, clustering="spectral")
     if method == "no-features":
@@ -51,7 +52,36 @@ def run_method(method: str, exemplar: Exemplar, size: tuple[float, float],
 
     if method == "random":
         return random_placement(exemplar, size, base.seed)
-    return synthesize(exemplar, size, method_config(method, base), on_iteration)
+    res = synthesize(exemplar, size, method_config(method, base), on_iteration)
+    if method == "no-clustering":
+        boxes = np.stack([e.bbox for e in exemplar.elements])  # (E, 4)
+        res.placements = merge_duplicates(res.placements, boxes)
+    return res
+
+
+def merge_duplicates(placements: list[Placement], boxes: np.ndarray,
+                     floor: float = 0.15) -> list[Placement]:
+    """Drop placements that overlap a better one more than any two input elements overlap.
+
+    The no-clustering baseline's stopgap: clusters cut at patch borders each rebuild a whole
+    element, stacking near-copies; the clustering step fixes the cause. ``boxes`` (E, 4) are
+    the input elements' bounding boxes.
+    """
+    from cvt.reconstruction import box_iou
+
+    if len(placements) < 2:
+        return placements
+    iou_in = box_iou(boxes, boxes)
+    np.fill_diagonal(iou_in, 0)
+    limit = max(floor, float(iou_in.max()) + 0.1)
+    shift = np.array([[p.dx, p.dy, p.dx, p.dy] for p in placements])
+    moved = boxes[[p.element for p in placements]] + shift  # (P, 4)
+    iou = box_iou(moved, moved)
+    kept = np.zeros(len(placements), dtype=bool)
+    for k in np.argsort([p.energy for p in placements], kind="stable"):
+        if not (iou[k, kept] > limit).any():
+            kept[k] = True
+    return [p for p, k in zip(placements, kept, strict=True) if k]
 
 
 def random_placement(exemplar: Exemplar, size: tuple[float, float], seed: int = 0,

@@ -58,6 +58,7 @@ def build_parser() -> argparse.ArgumentParser:
     syn.add_argument("--w-l", type=float, help="link-energy weight in eq. 9 (default 1)")
     syn.add_argument("--w-s", type=float, help="shape-energy weight in eq. 9 (default 4)")
     syn.add_argument("--threads", type=int, default=1, help="torch CPU threads")
+    _add_pattern_args(syn)
     syn.add_argument("--preview", help="also render the result to this PNG")
     syn.add_argument("--debug-dir", help="write per-iteration sample pictures and energies here")
     syn.add_argument("--quiet", action="store_true", help="no progress bar")
@@ -70,6 +71,26 @@ def build_parser() -> argparse.ArgumentParser:
     ins.add_argument("--levels", type=int, default=3)
     ins.set_defaults(func=cmd_inspect)
     return parser
+
+
+def _add_pattern_args(syn) -> None:
+    """Real-world pattern options (cvt.pattern)."""
+    pat = syn.add_argument_group("real-world patterns")
+    pat.add_argument("--elements", choices=("auto", "shapes", "groups"), default="auto",
+                     help="what an element is: groups = the file's top-level nodes (a <g> is "
+                     "one element); shapes = every drawable leaf, compound paths split; auto "
+                     "(default) = groups, compound paths split, lone wrapper groups opened")
+    pat.add_argument("--no-lattice", action="store_true",
+                     help="do not tile near-periodic exemplars; always use the seed's method")
+    pat.add_argument("--no-density", action="store_true",
+                     help="do not bring each element kind to the exemplar's density")
+    pat.add_argument("--clip", action="store_true",
+                     help="clip elements crossing the canvas (or domain) border")
+    pat.add_argument("--tileable", action="store_true",
+                     help="make the output repeat seamlessly when tiled")
+    pat.add_argument("--domain", metavar="SHAPE.svg",
+                     help="fill the closed region of this SVG's shapes (fitted into the "
+                     "output canvas) instead of the rectangle")
 
 
 def _output_size(args, exemplar) -> tuple[float, float]:
@@ -115,15 +136,19 @@ def cmd_synthesize(args) -> int:
 
     _check_args(args)
     image = _from_image(args) if args.from_image else None
-    ex = image.exemplar if image else load_svg(args.exemplar)  # bad input fails here
+    ex = image.exemplar if image else load_svg(args.exemplar, args.elements)  # bad input fails
+    if not ex.elements:
+        raise InputError("the exemplar has only background content and no elements to arrange")
     size = _output_size(args, ex)
+    if not args.quiet and ex.note:
+        print(ex.note, file=sys.stderr)
 
     from tqdm import tqdm
 
-    from cvt.baselines import run_method
     from cvt.clustering import ClusteringParams
+    from cvt.pattern import pattern_svg, synthesize_pattern
     from cvt.sampling import sample_exemplar
-    from cvt.synthesis import SynthesisConfig, result_svg
+    from cvt.synthesis import SynthesisConfig
     weights = {k: v for k, v in (("w_l", args.w_l), ("w_s", args.w_s)) if v is not None}
     extra = {k: v for k, v in (("w_f", args.w_f), ("w_a", args.w_a)) if v is not None}
     cfg = SynthesisConfig(levels=args.levels, iterations=args.iterations, seed=args.seed,
@@ -149,11 +174,15 @@ def cmd_synthesize(args) -> int:
             draw_samples(state.samples.pos, state.samples.cluster, box,
                          debug / f"level{state.level}_iter{state.iteration}.png")
 
+    opts = _pattern_options(args, box)
     try:
-        res = run_method(args.method, ex, size, cfg, on_iteration)
+        pattern = synthesize_pattern(ex, size, cfg, args.method, opts, on_iteration)
     finally:
         bar.close()
-    text = result_svg(ex, res)
+    for note in pattern.notes:
+        if not args.quiet:
+            print(note, file=sys.stderr)
+    text = pattern_svg(ex, pattern, opts)
     if image is not None:
         from cvt.from_textons import with_backdrop
 
@@ -161,19 +190,29 @@ def cmd_synthesize(args) -> int:
     write_text_atomic(args.output, text)
     if args.preview:
         render_png(Path(args.output), Path(args.preview))
-    if debug is not None:
+    res = pattern.result
+    if debug is not None and res is not None:
         from cvt.debug import draw_energy
 
         draw_energy(res.energies, debug / "energy.png")
         write_text_atomic(debug / "energy.json", json.dumps(
             {"energies": res.energies, "timings_s": res.timings,
              "samples_per_level": res.samples_per_level}, indent=1))
-    if res.energies:
-        print(f"wrote {args.output}: {len(res.placements)} elements, "
+    if res is not None and res.energies:
+        print(f"wrote {args.output}: {len(pattern.placements)} elements, "
               f"{res.samples_per_level[-1]} finest samples, energy {res.energies[-1][2]:.3f}")
     else:
-        print(f"wrote {args.output}: {len(res.placements)} elements")
+        print(f"wrote {args.output}: {len(pattern.placements)} elements")
     return 0
+
+
+def _pattern_options(args, box):
+    from cvt.domain import Domain
+    from cvt.pattern import PatternOptions
+
+    domain = Domain.from_svg(args.domain).fitted(box) if args.domain else None
+    return PatternOptions(lattice=not args.no_lattice, density=not args.no_density,
+                          tileable=args.tileable, domain=domain, clip=args.clip)
 
 
 def _from_image(args):

@@ -1,10 +1,10 @@
 """The clustering step (seed 000 sec. 6.5, eqs. 9-17): update output cluster ids.
 
-Energy (eq. 9) E = w_l E_l + w_s E_s. The link energy (eqs. 12-13) sums, over ordered pairs of
-output samples closer than lambda delta whose link confidence l is defined (eqs. 10-11),
-+-(1 - 2l): a pair inside one cluster costs 1 - 2l, a pair across clusters 2l - 1. So joining
-a pair changes E_l by c = 4 (1 - 2l) (two ordered pairs, sign flip). The shape energy (eq. 14)
-sums E'_s over clusters (shape_energy.py).
+Energy (seed 000 eq. 9) E = w_l E_l + w_s E_s. The link energy (seed 000 eqs. 12-13) sums, over
+ordered pairs of output samples closer than lambda delta whose link confidence l is defined
+(seed 000 eqs. 10-11), +-(1 - 2l): a pair inside one cluster costs 1 - 2l, a pair across
+clusters 2l - 1. So joining a pair changes E_l by c = 4 (1 - 2l) (two ordered pairs, sign
+flip). The shape energy (seed 000 eq. 14) sums E'_s over clusters (shape_energy.py).
 
 Greedy optimization (sec. 6.5.2) with two priority queues, both with lazy deletion (an entry
 whose samples or clusters changed since it was queued is dropped when popped, and fresh
@@ -40,9 +40,9 @@ _TOL = 1e-9
 
 @dataclass(frozen=True)
 class ClusteringParams:
-    w_l: float = 1.0  # eq. 9
-    w_s: float = 4.0  # eq. 9
-    lam: float = 4.0  # link pairs reach lambda delta (eq. 12)
+    w_l: float = 1.0  # seed 000 eq. 9
+    w_s: float = 4.0  # seed 000 eq. 9
+    lam: float = 4.0  # link pairs reach lambda delta (seed 000 eq. 12)
     adjacent: float = 2.0  # switch targets and merge partners reach this many delta
     boundary_gap: float = math.pi / 2  # empty sector (radians) that makes a boundary sample
     switch: bool = True
@@ -95,7 +95,7 @@ class Clustering:
         self.labels = labels.numpy().astype(np.int64).copy()
         self.p = params
         d = np.linalg.norm(self.pos[votes.a.numpy()] - self.pos[votes.b.numpy()], axis=1)
-        near = d < params.lam * delta  # eq. 12 range
+        near = d < params.lam * delta  # seed 000 eq. 12 range
         la, lb = votes.a.numpy()[near], votes.b.numpy()[near]
         link = votes.link.numpy()[near]
         self.links = _Csr(la, lb, self.n, 4.0 * (1.0 - 2.0 * link), link)  # c, l
@@ -107,7 +107,7 @@ class Clustering:
 
     # -- energies ---------------------------------------------------------------------------
     def link_energy(self) -> float:
-        """Eq. 12 over ordered pairs (each CSR entry is one ordered pair)."""
+        """Seed 000 eq. 12 over ordered pairs (each CSR entry is one ordered pair)."""
         rows = np.repeat(np.arange(self.n), np.diff(self.links.indptr))
         same = self.labels[rows] == self.labels[self.links.col]
         c = self.links.vals[0] / 4.0  # 1 - 2l
@@ -117,7 +117,7 @@ class Clustering:
         return float(sum(self.shape(m).energy for m in self.members.values()))
 
     def energy(self) -> float:
-        """Eq. 9."""
+        """Seed 000 eq. 9."""
         return self.p.w_l * self.link_energy() + self.p.w_s * self.shape_energy()
 
     def _link_between(self, src: np.ndarray, label: int) -> float:
@@ -356,7 +356,7 @@ class Clustering:
 def cluster_step(pos: torch.Tensor, labels: torch.Tensor, votes: PairVotes,
                  shape: ShapeEnergy, delta: float,
                  params: ClusteringParams) -> tuple[torch.Tensor, ClusteringStats]:
-    """Greedy minimization of eq. 9 over cluster ids: P_s, then P_C.
+    """Greedy minimization of seed 000 eq. 9 over cluster ids: P_s, then P_C.
 
     Shape: pos (N, 2), labels (N,) -> new labels (N,) long (ids 0..C-1), stats.
     """

@@ -1,9 +1,9 @@
 """Depth order of output clusters (seed 000 sec. 6.4, eqs. 5-8).
 
-Matched neighborhoods vote whether one output sample lies below another (eq. 5), the votes are
-averaged over the sample pairs of two clusters (eq. 8), and a total drawing order follows from
-these pairwise preferences by Order-By-Preferences (Cohen, Schapire & Singer 1999): strongly
-connected components of the majority graph in topological order, greedy by potential inside
+Matched neighborhoods vote whether one output sample lies below another (seed 000 eq. 5), the votes
+are averaged over the sample pairs of two clusters (seed 000 eq. 8), and a total drawing order
+follows from these pairwise preferences by Order-By-Preferences (Cohen, Schapire & Singer 1999):
+strongly connected components of the majority graph in topological order, greedy by potential inside
 each component. On an acyclic preference set that order agrees with every preference.
 """
 
@@ -20,7 +20,7 @@ from cvt.pair_votes import PairVotes
 
 
 def sample_order(votes: PairVotes, out_pos: torch.Tensor, delta: float):
-    """f_s for pairs closer than 2 delta (eq. 5): P(a below b) and P(b below a).
+    """f_s for pairs closer than 2 delta (seed 000 eq. 5): P(a below b) and P(b below a).
 
     Shape: -> a, b (P,) long, f_ab, f_ba (P,) float64.
     """
@@ -32,7 +32,7 @@ def sample_order(votes: PairVotes, out_pos: torch.Tensor, delta: float):
 
 def cluster_preferences(votes: PairVotes, out_pos: torch.Tensor, cluster: torch.Tensor,
                         n_clusters: int, delta: float) -> np.ndarray:
-    """f_C(C_i, C_j) (eq. 8): mean f_s over close sample pairs of two clusters, 0 if none.
+    """f_C(C_i, C_j) (seed 000 eq. 8): mean f_s over close sample pairs of two clusters, 0 if none.
 
     ``cluster`` (N,) must hold ids 0..n_clusters-1. Shape: -> (C, C), [i, j] = P(i below j).
     """

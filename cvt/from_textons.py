@@ -50,7 +50,7 @@ def image_exemplar(svg: str) -> ImageExemplar:
     full = parse_svg(svg.encode())
     backdrop = "#ffffff"
     keep = []
-    for e in full.elements:
+    for e in full.background + full.elements:  # parse_svg splits canvas-covering layers off
         if e.node.get("data-background") == "1":
             fills = [n.get("fill") for n in e.node.iter() if n.get("fill")]
             backdrop = fills[0] if fills else backdrop
@@ -62,7 +62,8 @@ def image_exemplar(svg: str) -> ImageExemplar:
     kinds = [e.node.get("data-kind", "k0") for e in keep]
     names = sorted(set(kinds))
     onehot = np.eye(len(names))[[names.index(k) for k in kinds]]  # (E, kinds)
-    return ImageExemplar(replace(full, elements=keep, appearance=onehot), backdrop, svg)
+    return ImageExemplar(replace(full, elements=keep, appearance=onehot, background=[]),
+                         backdrop, svg)
 
 
 def with_backdrop(svg: str, colour: str) -> str:

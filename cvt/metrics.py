@@ -8,7 +8,7 @@ kind. Metrics, lower is better unless noted:
 1. ``pcf``: multi-class pair correlation functions of element centers (each kind and each pair
    of kinds, translation edge correction), mean absolute difference to the exemplar's.
 2. ``local``: mean distance of each output neighborhood to its nearest exemplar neighborhood
-   (eq. 2 at the finest level, divided by the neighborhood's sample count, averaged over
+   (seed 000 eq. 2 at the finest level, divided by the neighborhood's sample count, averaged over
    neighborhoods: seed 000 Fig. 10's normalization).
 3. composition: ``coverage`` |filled-area ratio difference|, ``density`` |relative element
    count per area difference|, ``overlap`` |difference in the share of covered area that
@@ -154,7 +154,7 @@ def pcf_distance(ref: Layout, out: Layout, bins: int = 24) -> float:
 
 # -- 2. local structure --------------------------------------------------------------------
 def local_energy(ex: Exemplar, out: Layout, passes: int = 6, seed: int = 0) -> float:
-    """Eq. 2 of each output neighborhood to its nearest exemplar neighborhood at the finest
+    """Seed 000 eq. 2 of each output neighborhood to its nearest exemplar neighborhood at the finest
     level, over the neighborhood's sample count, averaged (lower: more exemplar-like)."""
     from cvt.reconstruction import Placement, upsample
     from cvt.sampling import hierarchy, sample_exemplar
@@ -263,7 +263,7 @@ def all_metrics(ex: Exemplar, out: Layout, ref: Layout | None = None) -> dict[st
 
 def broken_fraction(res, delta: float) -> float:
     """Share of final output clusters that are not one whole element: fewer than half or more
-    than 1.5x the samples of their best input cluster (eq. 15), counted before filtering.
+    than 1.5x the samples of their best input cluster (seed 000 eq. 15), counted before filtering.
     ``res`` is a SynthesisResult; nan for methods without clusters."""
     from cvt.reconstruction import reconstruct
 

@@ -26,7 +26,7 @@ from scipy.optimize import linear_sum_assignment
 @dataclass(frozen=True)
 class DistanceParams:
     delta: float  # positions are divided by this
-    w_f: float = 10.0  # eq. 3 feature weight
+    w_f: float = 10.0  # seed 000 eq. 3 feature weight
     c_out: float = 4.0  # cost of leaving an output sample unmatched (seed 001 eq. 10-12)
 
 
@@ -81,7 +81,9 @@ def pair_space(out_pos, out_nbr, in_pos, in_nbr, table, p: DistanceParams) -> Pa
 
 
 def _position_costs(sp: PairSpace, o: torch.Tensor, i: torch.Tensor):
-    """Eq. 3 first term for all neighbor pairs. Shape: o, i (B,) -> (B, K, K), nbrs (B, K) x2."""
+    """Seed 000 eq. 3 first term for all neighbor pairs.
+
+    Shape: o, i (B,) -> (B, K, K), nbrs (B, K) x2."""
     on, inn = sp.out_nbr[o], sp.in_nbr[i]  # (B, K), -1 == sentinel (last row)
     rel_o = (sp.out_pos[on] - sp.out_pos[o][:, None]) / sp.p.delta  # (B, K, 2)
     rel_i = (sp.in_pos[inn] - sp.in_pos[i][:, None]) / sp.p.delta  # (B, K, 2)
@@ -89,7 +91,7 @@ def _position_costs(sp: PairSpace, o: torch.Tensor, i: torch.Tensor):
 
 
 def _add_features(sp: PairSpace, cost: torch.Tensor, on: torch.Tensor, inn: torch.Tensor):
-    """Add eq. 3's chi2 term in place and clamp at c_out. Shape: (B, K, K)."""
+    """Add seed 000 eq. 3's chi2 term in place and clamp at c_out. Shape: (B, K, K)."""
     m1 = sp.table.shape[1]
     on_s = torch.where(on >= 0, on, sp.table.shape[0] - 1)
     in_s = torch.where(inn >= 0, inn, m1 - 1)
@@ -101,8 +103,8 @@ def _add_features(sp: PairSpace, cost: torch.Tensor, on: torch.Tensor, inn: torc
 def cost_matrices(sp: PairSpace, o: torch.Tensor, i: torch.Tensor):
     """Center costs and clamped sample-matching costs for neighborhood pairs (o[b], i[b]).
 
-    Rows are output neighbors, columns input neighbors; entries are eq. 3 clamped at ``c_out``
-    (leaving a sample unmatched). Also returns the constant that padded rows add.
+    Rows are output neighbors, columns input neighbors; entries are seed 000 eq. 3 clamped at
+    ``c_out`` (leaving a sample unmatched). Also returns the constant that padded rows add.
     Shape: o, i (B,) -> center (B,), cost (B, K, K), pad (B,).
     """
     cost, on, inn = _position_costs(sp, o, i)
@@ -114,7 +116,7 @@ def cost_matrices(sp: PairSpace, o: torch.Tensor, i: torch.Tensor):
 
 def pruned_lower_bounds(sp: PairSpace, o: torch.Tensor, i: torch.Tensor,
                         bound: torch.Tensor) -> torch.Tensor:
-    """Lower bounds of eq. 2, computed in stages that stop once they reach ``bound``.
+    """Lower bounds of seed 000 eq. 2, computed in stages that stop once they reach ``bound``.
 
     Stage 1: the center term alone; stage 2: plus position-only row minima (no feature
     lookups); stage 3: the full row-minimum bound. A pair pruned early gets a partial bound,
@@ -137,7 +139,7 @@ def pruned_lower_bounds(sp: PairSpace, o: torch.Tensor, i: torch.Tensor,
 
 
 def lower_bound(center: torch.Tensor, cost: torch.Tensor, pad: torch.Tensor) -> torch.Tensor:
-    """Cheap lower bound of eq. 2: each output sample takes its best input sample.
+    """Cheap lower bound of seed 000 eq. 2: each output sample takes its best input sample.
 
     Shape: (B,), (B, K, K), (B,) -> (B,).
     """
@@ -171,7 +173,7 @@ def matched_inputs(cost, cols, out_nbr_b, in_nbr_b, c_out: float) -> torch.Tenso
 
 
 def distance_batched(sp: PairSpace, o: torch.Tensor, i: torch.Tensor):
-    """Eq. 2 for each pair (o[b], i[b]). Shape: -> distance (B,), matched inputs (B, K)."""
+    """Seed 000 eq. 2 for each pair (o[b], i[b]). Shape: -> distance (B,), matched inputs (B, K)."""
     center, cost, pad = cost_matrices(sp, o, i)
     total, cols = solve_assignments(cost)
     return center + total - pad, matched_inputs(cost, cols, sp.out_nbr[o], sp.in_nbr[i], sp.p.c_out)
@@ -179,13 +181,13 @@ def distance_batched(sp: PairSpace, o: torch.Tensor, i: torch.Tensor):
 
 def distance_reference(rel_o: np.ndarray, rel_i: np.ndarray, f_o: np.ndarray, f_i: np.ndarray,
                        fc_o: np.ndarray, fc_i: np.ndarray, p: DistanceParams) -> float:
-    """Plain per-pair eq. 2 with explicit dummy (outlier) columns, for tests.
+    """Plain per-pair seed 000 eq. 2 with explicit dummy (outlier) columns, for tests.
 
     Shape: rel_o (Ko, 2), rel_i (Ki, 2), f_o (Ko, F), f_i (Ki, F), fc_o / fc_i (F,) centers.
     """
     from scipy.spatial.distance import cdist
 
-    def chi2_np(a, b):  # plain eq. 3 chi2, one pair of histograms
+    def chi2_np(a, b):  # plain seed 000 eq. 3 chi2, one pair of histograms
         den = a + b
         return float(np.sum(np.where(den > 0, (a - b) ** 2 / np.where(den > 0, den, 1), 0)))
 

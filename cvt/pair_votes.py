@@ -2,8 +2,8 @@
 
 Every matched pair of neighborhoods (n_i, n_o) in the search step's field votes on each pair of
 output samples (s_o, s'_o) that n_o contains (both matched, not outliers): do their matched
-input samples share an input cluster (eq. 11: link confidence), and is m_s(s_o) below
-m_s(s'_o) (eq. 7: depth order)? Both the clustering step and depth order read these counts.
+input samples share an input cluster (seed 000 eq. 11: link confidence), and is m_s(s_o) below
+m_s(s'_o) (seed 000 eq. 7: depth order)? Both the clustering step and depth order read these counts.
 """
 
 from __future__ import annotations
@@ -19,8 +19,8 @@ from cvt.search import Matches
 class PairVotes:
     """Counts over unordered output sample pairs a < b that some matched neighborhood holds.
 
-    ``n`` is |N_n(a, b)| (eq. 6), ``same`` |N_l(a, b)| (eq. 11), ``below`` |N_z(a, b)| and
-    ``above`` |N_z(b, a)| (eq. 7). All tensors have shape (P,).
+    ``n`` is |N_n(a, b)| (seed 000 eq. 6), ``same`` |N_l(a, b)| (seed 000 eq. 11), ``below``
+    |N_z(a, b)| and ``above`` |N_z(b, a)| (seed 000 eq. 7). All tensors have shape (P,).
     """
 
     a: torch.Tensor  # long
@@ -32,7 +32,7 @@ class PairVotes:
 
     @property
     def link(self) -> torch.Tensor:
-        """Link confidence l(a, b) (eq. 10). Shape: (P,) float64."""
+        """Link confidence l(a, b) (seed 000 eq. 10). Shape: (P,) float64."""
         return self.same.double() / self.n.double()
 
     def select(self, keep: torch.Tensor) -> PairVotes:

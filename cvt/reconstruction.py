@@ -1,8 +1,9 @@
 """Reconstruction (seed 000 sec. 6.6): each output cluster becomes a translated input element.
 
-The element is the one of the candidate input cluster that minimizes the shape energy (eq. 15,
-shape_energy.py), translated by eq. 17. Filtering drops elements whose cluster shape energy is
-high, E'_s(C_o) > |C_o|: broken or stray clusters. Depth order (depth.py) sorts the result.
+The element is the one of the candidate input cluster that minimizes the shape energy
+(seed 000 eq. 15, shape_energy.py), translated by seed 000 eq. 17. Filtering drops elements
+whose cluster shape energy is high, E'_s(C_o) > |C_o|: broken or stray clusters. Depth order
+(depth.py) sorts the result.
 """
 
 from __future__ import annotations
@@ -23,14 +24,14 @@ class Placement:
     element: int  # input element (== input cluster id)
     dx: float
     dy: float
-    energy: float  # shape energy E'_s of the output cluster (eq. 15)
+    energy: float  # shape energy E'_s of the output cluster (seed 000 eq. 15)
     z: int  # z-index of the input element
     size: int = 0  # number of samples in the output cluster, |C_o|
 
 
 def reconstruct(out: Samples, inp: Samples, m: Matches, delta: float,
                 shape: ShapeEnergy | None = None) -> list[Placement]:
-    """Pick an input element and translation for every output cluster (eqs. 15-17).
+    """Pick an input element and translation for every output cluster (seed 000 eqs. 15-17).
 
     Returned in input z order (ties by cluster id); ``shape`` may be a ShapeEnergy built for
     the same positions and field (its memo is reused).
@@ -63,29 +64,6 @@ def box_iou(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     area_a = (a[:, 2:] - a[:, :2]).prod(-1)
     area_b = (b[:, 2:] - b[:, :2]).prod(-1)
     return inter / np.maximum(area_a[:, None] + area_b[None, :] - inter, 1e-12)
-
-
-def merge_duplicates(placements: list[Placement], boxes: np.ndarray,
-                     floor: float = 0.15) -> list[Placement]:
-    """Drop placements that overlap a better one more than any two input elements overlap.
-
-    The no-clustering baseline's stopgap: clusters cut at patch borders each rebuild a whole
-    element, stacking near-copies; the clustering step fixes the cause. ``boxes`` (E, 4) are
-    the input elements' bounding boxes.
-    """
-    if len(placements) < 2:
-        return placements
-    iou_in = box_iou(boxes, boxes)
-    np.fill_diagonal(iou_in, 0)
-    limit = max(floor, float(iou_in.max()) + 0.1)
-    shift = np.array([[p.dx, p.dy, p.dx, p.dy] for p in placements])
-    moved = boxes[[p.element for p in placements]] + shift  # (P, 4)
-    iou = box_iou(moved, moved)
-    kept = np.zeros(len(placements), dtype=bool)
-    for k in np.argsort([p.energy for p in placements], kind="stable"):
-        if not (iou[k, kept] > limit).any():
-            kept[k] = True
-    return [p for p, k in zip(placements, kept, strict=True) if k]
 
 
 def upsample(placements: list[Placement], inp: Samples) -> Samples:

@@ -1,12 +1,12 @@
 """Search step: PatchMatch over samples (seed 001 sec. 4.3.3, seed 000 sec. 6.3).
 
-For every output sample find the input sample whose neighborhood is nearest by eq. 2. The
+For every output sample find the input sample whose neighborhood is nearest by seed 000 eq. 2. The
 field starts random (plus any known source sample), then alternates propagation over the kNN
 graph of output samples and random search in exponentially shrinking windows. All samples are
 updated in parallel (Jacobi style) so one pass is a handful of batched tensor ops.
 
-Every candidate first gets a cheap lower bound of eq. 2 (each output neighbor takes its best
-input neighbor); only a candidate whose bound beats the current exact distance is solved
+Every candidate first gets a cheap lower bound of seed 000 eq. 2 (each output neighbor takes its
+best input neighbor); only a candidate whose bound beats the current exact distance is solved
 exactly with the Hungarian method, so the field never gets worse.
 """
 
@@ -31,11 +31,11 @@ class Matches:
     center: torch.Tensor  # (N,) input sample matched to each output center, mu_s
     out_nbr: torch.Tensor  # (N, K) output neighborhoods used
     matched: torch.Tensor  # (N, K) input sample matched to each output neighbor, -1 outlier
-    cost: torch.Tensor  # (N,) eq. 2 distance of each output neighborhood to its match
+    cost: torch.Tensor  # (N,) seed 000 eq. 2 distance of each output neighborhood to its match
 
     @property
     def energy(self) -> float:
-        """Eq. 4 averaged over output samples."""
+        """Seed 000 eq. 4 averaged over output samples."""
         return float(self.cost.mean()) if self.cost.numel() else 0.0
 
 
@@ -96,7 +96,8 @@ def _candidates(field, out_pos, out_nbr, in_pos, grid, window0, params, delta, g
 
 
 def _lower_bounds(sp: PairSpace, o, i, bound, chunk: int = 4096):
-    """Lower bounds of eq. 2 in chunks (bounded memory). Shape: o, i, bound (B,) -> (B,)."""
+    """Lower bounds of seed 000 eq. 2 in chunks (bounded memory).
+    Shape: o, i, bound (B,) -> (B,)."""
     parts = [pruned_lower_bounds(sp, o[s : s + chunk], i[s : s + chunk], bound[s : s + chunk])
              for s in range(0, o.shape[0], chunk)]
     return torch.cat(parts) if parts else sp.out_pos.new_zeros(0)

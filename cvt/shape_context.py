@@ -54,8 +54,8 @@ def shape_contexts(pos: torch.Tensor, cluster: torch.Tensor) -> torch.Tensor:
 
 
 def chi2(a: torch.Tensor, b: torch.Tensor) -> torch.Tensor:
-    """Chi-squared statistic between histograms, broadcast over leading dims (eq. 3, 2nd term
-    without the w_f / 2 factor). Shape: (..., 60), (..., 60) -> (...)."""
+    """Chi-squared statistic between histograms, broadcast over leading dims (seed 000 eq. 3, 2nd
+    term without the w_f / 2 factor). Shape: (..., 60), (..., 60) -> (...)."""
     return ((a - b) ** 2 / (a + b).clamp_min(1e-12)).sum(-1)
 
 

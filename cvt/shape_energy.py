@@ -3,9 +3,9 @@ input cluster shape.
 
 For an output cluster C_o the candidate input clusters are those its samples are matched to
 (mu_s). Each candidate C_i is translated onto C_o by the mean offset of the matched pairs
-(eq. 17) and compared by eq. 16: an optimal one-to-one matching of the samples plus eps per
-unmatched sample, normalized by eps = 2 delta. The best candidate gives E'_s (eq. 15), and in
-reconstruction the element and its translation (sec. 6.6).
+(seed 000 eq. 17) and compared by seed 000 eq. 16: an optimal one-to-one matching of the samples
+plus eps per unmatched sample, normalized by eps = 2 delta. The best candidate gives E'_s
+(seed 000 eq. 15), and in reconstruction the element and its translation (sec. 6.6).
 """
 
 from __future__ import annotations
@@ -20,13 +20,13 @@ from scipy.spatial.distance import cdist
 
 @dataclass(frozen=True)
 class ShapeFit:
-    energy: float  # E'_s(C_o), eq. 15
+    energy: float  # E'_s(C_o), seed 000 eq. 15
     cluster: int  # best candidate input cluster
-    shift: tuple[float, float]  # T_r translation of that candidate onto C_o (eq. 17)
+    shift: tuple[float, float]  # T_r translation of that candidate onto C_o (seed 000 eq. 17)
 
 
 def shape_distance(p_out: np.ndarray, p_in: np.ndarray, eps: float) -> float:
-    """Eq. 16 for already translated input samples. Shape: (A, 2), (B, 2) -> scalar."""
+    """Seed 000 eq. 16 for already translated input samples. Shape: (A, 2), (B, 2) -> scalar."""
     if len(p_out) == 0 or len(p_in) == 0:
         return abs(len(p_out) - len(p_in)) * 1.0
     d = cdist(p_out, p_in)
@@ -66,12 +66,13 @@ class ShapeEnergy:
         return fit
 
     def candidates(self, members: np.ndarray) -> np.ndarray:
-        """Candidate input clusters of an output cluster (eq. 15's set). Shape: -> (K,)."""
+        """Candidate input clusters of an output cluster (seed 000 eq. 15's set). Shape: -> (K,)."""
         return np.unique(self.src[members])
 
     def count_floor(self, cands: np.ndarray, sizes) -> np.ndarray:
         """Lower bounds of E'_s for clusters of ``sizes`` samples whose candidates are among
-        ``cands``: eq. 16's count term for the nearest candidate size. Shape: (S,) -> (S,)."""
+        ``cands``: seed 000 eq. 16's count term for the nearest candidate size.
+        Shape: (S,) -> (S,)."""
         return np.abs(self.size[cands][:, None] - np.asarray(sizes)[None, :]).min(0)
 
     def _fit(self, mem: np.ndarray) -> ShapeFit:
@@ -80,11 +81,11 @@ class ShapeEnergy:
         sizes = self.size[cands]
         best = ShapeFit(np.inf, -1, (0.0, 0.0))
         for k in np.argsort(np.abs(sizes - len(mem)), kind="stable"):
-            if abs(sizes[k] - len(mem)) >= best.energy:  # eq. 16's count term alone loses
+            if abs(sizes[k] - len(mem)) >= best.energy:  # seed 000 eq. 16's count term alone loses
                 break
             ci = int(cands[k])
             pairs = mem[src == ci]
-            shift = (self.o_pos[pairs] - self.i_pos[self.mu[pairs]]).mean(0)  # eq. 17
+            shift = (self.o_pos[pairs] - self.i_pos[self.mu[pairs]]).mean(0)  # seed 000 eq. 17
             d = shape_distance(self.o_pos[mem], self.i_pos[self.members[ci]] + shift, self.eps)
             if d < best.energy:
                 best = ShapeFit(d, ci, (float(shift[0]), float(shift[1])))

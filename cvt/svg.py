@@ -19,6 +19,8 @@ from dataclasses import dataclass, field
 import numpy as np
 import svgelements as se
 
+from cvt.background import covers, split_background
+from cvt.elements import element_nodes, open_layers
 from neuraltex.errors import InputError
 
 SVG_NS = "http://www.w3.org/2000/svg"
@@ -49,6 +51,17 @@ class Shape:
     evenodd: bool = False
 
 
+def _box(shapes: list[Shape]) -> np.ndarray:
+    """(4,) xmin, ymin, xmax, ymax of shapes, incl. half stroke width."""
+    boxes = []
+    for s in shapes:
+        hw = s.stroke_width / 2
+        for r in s.rings:
+            boxes.append(np.r_[r.min(0) - hw, r.max(0) + hw])
+    b = np.stack(boxes)
+    return np.r_[b[:, :2].min(0), b[:, 2:].max(0)]
+
+
 @dataclass
 class Element:
     """A top-level drawable node: geometry for sampling plus its original XML."""
@@ -59,13 +72,7 @@ class Element:
 
     @property
     def bbox(self) -> np.ndarray:  # (4,) xmin, ymin, xmax, ymax incl. half stroke width
-        boxes = []
-        for s in self.shapes:
-            hw = s.stroke_width / 2
-            for r in s.rings:
-                boxes.append(np.r_[r.min(0) - hw, r.max(0) + hw])
-        b = np.stack(boxes)
-        return np.r_[b[:, :2].min(0), b[:, 2:].max(0)]
+        return _box(self.shapes)
 
     @property
     def markup(self) -> str:
@@ -82,6 +89,10 @@ class Exemplar:
     # Optional appearance attributes A (seed 000 sec. 4.2), one row per element, (E, D); e.g.
     # one-hot texton kinds (cvt.from_textons). None: spatial information only, as in the paper.
     appearance: np.ndarray | None = None
+    # Canvas-covering content under the elements (cvt.background): carried to the output as
+    # background, never arranged. Its elements keep their document order.
+    background: list[Element] = field(default_factory=list)
+    note: str = ""  # what the parser decided (element mode, background), one line
 
     @property
     def size(self) -> float:
@@ -218,8 +229,12 @@ def _mini_doc(root: ET.Element, hidden: list[ET.Element], node: ET.Element) -> b
     return ET.tostring(mini)
 
 
-def parse_svg(data: bytes) -> Exemplar:
-    """Parse untrusted SVG bytes into an :class:`Exemplar` (raises InputError on bad input)."""
+def parse_svg(data: bytes, elements: str = "groups") -> Exemplar:
+    """Parse untrusted SVG bytes into an :class:`Exemplar` (raises InputError on bad input).
+
+    ``elements`` says which nodes are elements (cvt.elements: "auto", "shapes", "groups"; the
+    default "groups" is the file's top-level nodes). Background content (cvt.background) is
+    split off into ``Exemplar.background``."""
     _check_safe(data)
     root, namespaces = _parse_xml(data)
     for prefix, uri in namespaces.items():  # keep the file's prefixes (inkscape:, sodipodi:)
@@ -242,19 +257,26 @@ def parse_svg(data: bytes) -> Exemplar:
             unsupported += 1
         elif tag not in _SKIP_TAGS and not _hidden(child):
             candidates.append(child)
+    tops = candidates
+    candidates, note = element_nodes(tops, elements, _drawable)
     if len(candidates) > MAX_ELEMENTS:
-        raise InputError(f"SVG has more than {MAX_ELEMENTS} top-level elements")
-    by_id = _ids(defs + candidates)
+        raise InputError(f"SVG has more than {MAX_ELEMENTS} elements")
+    defs = defs + _nested_defs(tops)
+    by_id = _ids(defs + tops)
     styles = [n for d in defs for n in d.iter() if _local(n.tag) == "style"]
-    elements = []
-    for node in candidates:
+
+    def read(node: ET.Element) -> list[Shape]:
         hidden = styles + [by_id[i] for i in _reference_closure(node, by_id)]
         try:
-            shapes = _shapes_of(_mini_doc(root, hidden, node))
+            return _shapes_of(_mini_doc(root, hidden, node))
         except (ValueError, TypeError, IndexError, AttributeError, ZeroDivisionError) as exc:
             raise InputError(f"cannot read element <{_local(node.tag)}>: {exc}") from None
-        if shapes:
-            elements.append(Element(len(elements), node, shapes))
+
+    pairs = [(node, read(node)) for node in candidates]
+    if elements == "auto":  # a group spanning the canvas is a layer of the file, not a motif
+        pairs, opened = open_layers(pairs, lambda sh: covers(_box(sh), box), read, _drawable)
+        note += f", {opened} canvas-wide group(s) opened" if opened else ""
+    elements = [Element(k, n, sh) for k, (n, sh) in enumerate(p for p in pairs if p[1])]
     if not elements:
         if unsupported:
             raise InputError("SVG has only text or raster <image> content; nothing to synthesize")
@@ -262,8 +284,33 @@ def parse_svg(data: bytes) -> Exemplar:
     root_attrs = {k: v for k, v in root.attrib.items() if _local(k) not in _ROOT_GEOMETRY_ATTRS}
     # Referenced top-level elements must stay resolvable in the output: keep them as defs too.
     used = set().union(*(_refs(e.node) for e in elements)) if elements else set()
-    referenced = [c for c in candidates if c.get("id") in used]
-    return Exemplar(elements, box, root_attrs, defs + referenced, unit)
+    referenced = [c for c in tops if c.get("id") in used]
+    return split_background(Exemplar(elements, box, root_attrs, defs + referenced, unit,
+                                     note=note))
+
+
+def _drawable(node: ET.Element) -> bool:
+    tag = _local(node.tag)
+    return (tag not in _DEF_TAGS and tag not in _SKIP_TAGS and tag not in _UNSUPPORTED_TAGS
+            and not _hidden(node))
+
+
+def _nested_defs(tops: list[ET.Element]) -> list[ET.Element]:
+    """Definitions inside groups (opened groups leave them behind), outermost ones only."""
+    out: list[ET.Element] = []
+
+    def walk(node: ET.Element) -> None:
+        for child in node:
+            if not isinstance(child.tag, str):
+                continue
+            if _local(child.tag) in _DEF_TAGS:
+                out.append(child)
+            else:
+                walk(child)
+
+    for top in tops:
+        walk(top)
+    return out
 
 
 _REF = re.compile(r"#([^\s)'\"#]+)")
@@ -297,13 +344,13 @@ def _reference_closure(node: ET.Element, by_id: dict[str, ET.Element]) -> list[s
     return sorted(seen)
 
 
-def load_svg(path) -> Exemplar:
+def load_svg(path, elements: str = "groups") -> Exemplar:
     try:
         with open(path, "rb") as f:
             data = f.read(MAX_BYTES + 1)
     except OSError as exc:
         raise InputError(f"cannot read {path}: {exc.strerror or exc}") from None
-    return parse_svg(data)
+    return parse_svg(data, elements)
 
 
 def _renamed_copy(node: ET.Element, suffix: str) -> ET.Element:
@@ -327,11 +374,14 @@ def _fmt(v: float) -> str:
 
 
 def to_svg(exemplar: Exemplar, placements: list[tuple[int, float, float]],
-           size: tuple[float, float]) -> str:
+           size: tuple[float, float], under: list[ET.Element] = (), clip: str | None = None,
+           clip_all: bool = False) -> str:
     """Serialize ``placements`` = [(element index, dx, dy)] (in drawing order) as SVG text.
 
     ``size`` is the output extent in the exemplar's user units; the output viewBox starts at the
-    exemplar's viewBox origin so untranslated elements land where they were.
+    exemplar's viewBox origin so untranslated elements land where they were. ``under`` nodes
+    (the background) are drawn first, clipped to the path ``clip`` (a ``d``) when given;
+    ``clip_all`` clips the elements to it too.
     """
     x0, y0 = exemplar.viewbox[:2]
     w, h = size
@@ -344,16 +394,26 @@ def to_svg(exemplar: Exemplar, placements: list[tuple[int, float, float]],
     })
     for k, v in exemplar.root_attrs.items():
         root.set(k, v)
-    if exemplar.defs:
-        defs = ET.SubElement(root, f"{{{SVG_NS}}}defs")
-        for d in exemplar.defs:
-            if _local(d.tag) == "defs":
-                defs.extend(copy.deepcopy(list(d)))
-            else:
-                defs.append(copy.deepcopy(d))
+    defs = ET.SubElement(root, f"{{{SVG_NS}}}defs")
+    for d in exemplar.defs:
+        if _local(d.tag) == "defs":
+            defs.extend(copy.deepcopy(list(d)))
+        else:
+            defs.append(copy.deepcopy(d))
+    parent = back = root
+    if clip is not None:
+        cp = ET.SubElement(defs, f"{{{SVG_NS}}}clipPath", {"id": "cvt-clip"})
+        ET.SubElement(cp, f"{{{SVG_NS}}}path", {"d": clip})
+        back = ET.SubElement(root, f"{{{SVG_NS}}}g", {"clip-path": "url(#cvt-clip)"})
+        parent = back if clip_all else root
+    if not len(defs):
+        root.remove(defs)
+    for node in under:
+        back.append(node)
+        node.tail = "\n"
     for k, (idx, dx, dy) in enumerate(placements):
         move = {"transform": f"translate({_fmt(dx)},{_fmt(dy)})"}
-        g = ET.SubElement(root, f"{{{SVG_NS}}}g", move)
+        g = ET.SubElement(parent, f"{{{SVG_NS}}}g", move)
         g.append(_renamed_copy(exemplar.elements[idx].node, f"-c{k}"))
         g.tail = "\n"
     root.text = "\n"

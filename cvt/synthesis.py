@@ -22,7 +22,7 @@ from cvt.depth import cluster_preferences, order_by_preferences
 from cvt.initialization import gaussian_init, patch_init, random_init
 from cvt.neighborhood import DistanceParams, distance_batched, neighborhoods, pair_space
 from cvt.pair_votes import PairVotes, pair_votes
-from cvt.reconstruction import Placement, filter_placements, merge_duplicates, reconstruct, upsample
+from cvt.reconstruction import Placement, filter_placements, reconstruct, upsample
 from cvt.sampling import DEFAULT_DELTAS, DEFAULT_RADII, Level, Samples, hierarchy, sample_exemplar
 from cvt.search import Matches, NearestGrid, SearchParams, patchmatch
 from cvt.shape_context import chi2_table, shape_contexts
@@ -54,8 +54,8 @@ class SynthesisConfig:
     passes: int = 2
     interior_margin: float = 0.5  # input centers keep this many radii from the border
     huber: float = 1.0  # robust vote weighting in the assignment, in units of delta
-    # Shrink or skip assignment steps that would raise eq. 4 (monotone energy, ~2x assignment
-    # time; off by default: results look the same, see README).
+    # Shrink or skip assignment steps that would raise seed 000 eq. 4 (monotone energy, ~2x
+    # assignment time; off by default: results look the same, see README).
     backtrack: bool = False
     add_samples: bool = True
     # Existence may start a new cluster only with this share of its element's samples at once.
@@ -67,7 +67,6 @@ class SynthesisConfig:
     cluster: ClusteringParams = ClusteringParams()  # w_l, w_s, lambda, operators
     depth: bool = True  # depth order of the output (sec. 6.4); else input z order
     filter_shapes: bool = True  # drop elements with E'_s(C_o) > |C_o| (sec. 6.6)
-    merge_duplicates: bool = False  # the no-clustering stopgap: drop overlapping copies
     seed: int = 0
     threads: int = 1  # torch threads; more only pays off on an idle machine with big outputs
 
@@ -135,7 +134,6 @@ def _synthesize(exemplar: Exemplar, size, cfg: SynthesisConfig, on_iteration) ->
     out_box = (vx, vy, vx + size[0], vy + size[1])
     res = SynthesisResult([], size, [], [])
     res.level_timings = [dict.fromkeys(STEPS, 0.0) for _ in levels]
-    boxes = np.stack([e.bbox for e in exemplar.elements])  # (E, 4)
     app = None if exemplar.appearance is None else torch.as_tensor(exemplar.appearance)
 
     t = time.perf_counter()
@@ -158,8 +156,6 @@ def _synthesize(exemplar: Exemplar, size, cfg: SynthesisConfig, on_iteration) ->
         res.placements = reconstruct(out, inp, m, lv.delta, shape)
         if cfg.filter_shapes:
             res.placements = filter_placements(res.placements)
-        if cfg.merge_duplicates:
-            res.placements = merge_duplicates(res.placements, boxes)
         res.outputs.append(out)
         res.matches.append(m)
         res.samples_per_level.append(len(out))
@@ -182,7 +178,7 @@ def _tick(res: SynthesisResult, level: int, step: str, start: float) -> None:
 
 def depth_order(placements: list[Placement], out: Samples, m: Matches, inp: Samples,
                 delta: float, votes: PairVotes | None = None) -> list[Placement]:
-    """Placements sorted bottom to top by Order-By-Preferences over f_C (eqs. 5-8).
+    """Placements sorted bottom to top by Order-By-Preferences over f_C (seed 000 eqs. 5-8).
 
     Clusters without preferences keep their input z order relative to each other.
     """
@@ -202,9 +198,9 @@ def depth_order(placements: list[Placement], out: Samples, m: Matches, inp: Samp
 
 def feature_table(out: Samples, inp: Samples, app: torch.Tensor | None,
                   cfg: SynthesisConfig) -> torch.Tensor:
-    """Eq. 3's per-sample-pair feature term, before the w_f / 2 of :func:`pair_space`: chi2 of
-    shape contexts, plus (w_a / (w_f / 2)) |A(s_o) - A(s_i)|^2 when the exemplar has appearance
-    attributes ``app`` (E, D), read through each sample's element (sec. 4.2).
+    """Seed 000 eq. 3's per-sample-pair feature term, before the w_f / 2 of :func:`pair_space`:
+    chi2 of shape contexts, plus (w_a / (w_f / 2)) |A(s_o) - A(s_i)|^2 when the exemplar has
+    appearance attributes ``app`` (E, D), read through each sample's element (sec. 4.2).
     Shape: -> (N_out, N_in)."""
     table = chi2_table(out.feat, inp.feat)
     if app is None or cfg.w_a <= 0 or cfg.w_f <= 0:
@@ -227,7 +223,7 @@ def _input_index(inp: Samples, in_box, lv: Level, cfg: SynthesisConfig):
 def nearest_neighborhoods(out: Samples, inp: Samples, in_box, lv: Level, cfg: SynthesisConfig,
                           passes: int, gen: torch.Generator) -> Matches:
     """The search step alone, from a random field: each output neighborhood's nearest input
-    neighborhood by eq. 2 (for evaluating any output, e.g. a baseline's)."""
+    neighborhood by seed 000 eq. 2 (for evaluating any output, e.g. a baseline's)."""
     in_nbr, valid, grid, window0 = _input_index(inp, in_box, lv, cfg)
     sp = pair_space(out.pos, neighborhoods(out.pos, lv.radius, cfg.k_max), inp.pos, in_nbr,
                     chi2_table(out.feat, inp.feat), DistanceParams(lv.delta, cfg.w_f, cfg.c_out))
@@ -307,16 +303,17 @@ def _cluster(out: Samples, m: Matches, inp: Samples, votes: PairVotes, table, lv
 
 
 def _energy_at(pos, m: Matches, inp: Samples, in_nbr, table, dist, lv: Level, cfg) -> float:
-    """Eq. 4 (mean) at positions ``pos`` for the fixed field ``m.center``."""
+    """Seed 000 eq. 4 (mean) at positions ``pos`` for the fixed field ``m.center``."""
     sp = pair_space(pos, neighborhoods(pos, lv.radius, cfg.k_max), inp.pos, in_nbr, table, dist)
     d, _ = distance_batched(sp, torch.arange(pos.shape[0]), m.center)
     return float(d.mean())
 
 
 def _backtrack(old, new, m: Matches, inp, in_nbr, table, dist, lv, cfg) -> torch.Tensor:
-    """Take the least-squares step, or half of it, or none: whichever keeps eq. 4 from rising.
+    """Take the least-squares step, or half of it, or none: whichever keeps seed 000 eq. 4 from
+    rising.
 
-    Least squares fits squared vote residuals of fixed matchings, not eq. 4 itself (robust,
+    Least squares fits squared vote residuals of fixed matchings, not seed 000 eq. 4 itself (robust,
     re-matched, with features), so a full step can raise the energy, mostly at coarse levels.
     """
     for step in (1.0, 0.5):

@@ -3,6 +3,8 @@
     python scripts/eval_cvt.py                          # all exemplars, all methods (long)
     python scripts/eval_cvt.py --quick                  # 2 levels x 4 iterations, 1.5x size
     python scripts/eval_cvt.py --exemplars stars garden --methods full spectral
+    python scripts/eval_cvt.py --real                   # real-world corpus vs R1 / R2 (judge)
+    python scripts/eval_cvt.py --real --only emoji_ --method no-clustering
 
 Metrics (cvt/metrics.py; lower is better except layering): pcf (pair correlation of element
 centers per kind pair), local (normalized distance of output neighborhoods to their nearest
@@ -90,7 +92,17 @@ def main() -> None:
     ap.add_argument("--quick", action="store_true", help="2 levels x 4 iterations at 1.5x")
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--out", help="also write the tables to this Markdown file")
+    ap.add_argument("--real", action="store_true",
+                    help="judge `cvt synthesize` on the real-world corpus (data/cvt_real)")
+    ap.add_argument("--only", default="", help="--real: only files whose name contains this")
+    ap.add_argument("--method", default="full", help="--real: cvt synthesize --method")
+    ap.add_argument("--extra", default="", help="--real: more cvt synthesize arguments")
     args = ap.parse_args()
+    if args.real:
+        from eval_cvt_real import run_real
+
+        run_real(args, ROOT)
+        return
     if args.quick:
         args.levels, args.iterations, args.scale = 2, 4, 1.5
     names = args.exemplars or sorted(p.stem for p in (ROOT / "cvt" / "exemplars").glob("*.svg"))

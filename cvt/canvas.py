@@ -1,0 +1,226 @@
+"""The output canvas: what to keep of the placed elements, and the element density per kind.
+
+* Fragments (exemplar elements cut by its border) are context for neighbourhoods only: a copy
+  of one is kept only where it is cut by the output border the same way, never in the open.
+* Elements entirely outside the canvas (or the domain) are dropped; those crossing it stay
+  (``--clip`` clips them in the SVG).
+* Density: each kind's count per area is brought to the exemplar's, estimated by minus
+  sampling (whole elements / the area where a whole element of that size fits). Missing
+  elements go to the emptiest spots (most clearance to all boxes), surplus ones leave where
+  same-kind elements overlap most.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import numpy as np
+
+Placed = tuple[int, float, float]  # (element, dx, dy)
+DENSITY_TOL = 0.05  # repair when a kind is off by more than this share
+CANDIDATES = 600  # random spots tried per added element
+
+
+def moved_boxes(placed: list[Placed], boxes: np.ndarray) -> np.ndarray:
+    """Boxes of placed elements. Shape: (P, 4)."""
+    if not placed:
+        return np.zeros((0, 4))
+    idx = np.array([p[0] for p in placed])
+    d = np.array([[dx, dy, dx, dy] for _, dx, dy in placed])
+    return boxes[idx] + d
+
+
+def keep_on_canvas(placed: list[Placed], boxes: np.ndarray, cut: np.ndarray, out_box,
+                   inside: Callable[[np.ndarray], np.ndarray] | None = None) -> list[Placed]:
+    """Drop copies entirely off the canvas (or off ``inside``, a domain test on points (N, 2))
+    and fragment copies that are not cut by the canvas border."""
+    if not placed:
+        return placed
+    mb = moved_boxes(placed, boxes)
+    x0, y0, x1, y1 = out_box
+    eps = 1e-4 * max(x1 - x0, y1 - y0)
+    touch = (mb[:, 0] < x1) & (mb[:, 2] > x0) & (mb[:, 1] < y1) & (mb[:, 3] > y0)
+    crossing = ((mb[:, 0] < x0 + eps) | (mb[:, 1] < y0 + eps) | (mb[:, 2] > x1 - eps)
+                | (mb[:, 3] > y1 - eps))
+    frag = cut[[p[0] for p in placed]]
+    keep = touch & (~frag | crossing)
+    if inside is not None:
+        keep &= _touches_domain(mb, inside)
+    return [p for p, k in zip(placed, keep, strict=True) if k]
+
+
+def _touches_domain(mb: np.ndarray, inside) -> np.ndarray:
+    """Whether any of 25 points spread over each box is inside the domain. (P, 4) -> (P,)."""
+    t = np.linspace(0, 1, 5)
+    u, v = np.meshgrid(t, t)
+    uv = np.c_[u.ravel(), v.ravel()]  # (25, 2)
+    pts = mb[:, None, :2] + uv[None] * (mb[:, None, 2:] - mb[:, None, :2])  # (P, 25, 2)
+    return inside(pts.reshape(-1, 2)).reshape(len(mb), -1).any(1)
+
+
+def kind_rates(boxes: np.ndarray, kinds: np.ndarray, cut: np.ndarray, viewbox) -> dict[int, float]:
+    """Whole elements centred on the canvas per area, for each kind."""
+    x, y, w, h = viewbox
+    c = (boxes[:, :2] + boxes[:, 2:]) / 2
+    on = (c[:, 0] >= x) & (c[:, 0] < x + w) & (c[:, 1] >= y) & (c[:, 1] < y + h) & ~cut
+    return {int(k): float((on & (kinds == k)).sum() / (w * h)) for k in np.unique(kinds[on])}
+
+
+def composites(boxes: np.ndarray, cut: np.ndarray, share: float = 0.1) -> list[list[int]]:
+    """Whole elements that sit on or overlap each other (box intersection >= ``share`` of the
+    smaller box), as groups in z order: a butterfly with its heart. Shape: boxes (E, 4)."""
+    area = np.prod(boxes[:, 2:] - boxes[:, :2], axis=1)
+    inter = np.clip(np.minimum(boxes[:, None, 2:], boxes[None, :, 2:])
+                    - np.maximum(boxes[:, None, :2], boxes[None, :, :2]), 0, None).prod(-1)
+    near = inter >= share * np.minimum(area[:, None], area[None, :])  # (E, E)
+    near &= ~cut[:, None] & ~cut[None, :]
+    label = np.arange(len(boxes))
+    for _ in range(len(boxes)):
+        new = np.where(near, label[None, :], len(boxes)).min(1)
+        new = np.minimum(new, label)
+        if (new == label).all():
+            break
+        label = new
+    groups: dict[int, list[int]] = {}
+    for i in np.nonzero(~cut)[0]:
+        groups.setdefault(int(label[i]), []).append(int(i))
+    return list(groups.values())
+
+
+def repair_density(placed: list[Placed], boxes: np.ndarray, kinds: np.ndarray,
+                   rates: dict[int, float], groups: list[list[int]], out_box, area: float,
+                   rng: np.random.Generator, inside=None) -> list[Placed]:
+    """Add or remove copies so each kind has rate * area elements with their centre on the
+    canvas (``area``: the canvas or domain area). Missing kinds are added as whole exemplar
+    ``groups`` (composites, so a heart comes with its butterfly), each in the emptiest spot;
+    new copies go just above their kind's last copy in the drawing order."""
+    placed = list(placed)
+    want = {k: r * area for k, r in rates.items()}
+
+    def missing() -> dict[int, float]:
+        have = {k: _centred(placed, boxes, kinds, k, out_box, inside).sum() for k in want}
+        return {k: want[k] - have[k] for k in want}
+
+    gap = missing()
+    for _ in range(int(sum(max(v, 0) for v in gap.values())) + 1):
+        if not gap:
+            break
+        k = max(gap, key=gap.get)
+        if gap[k] < max(0.5, DENSITY_TOL * want[k]):
+            break
+        options = [g for g in groups if any(kinds[e] == k for e in g)]
+        group = options[int(rng.integers(len(options)))]
+        gb = boxes[group]
+        spot = _emptiest(placed, boxes, np.r_[gb[:, :2].min(0), gb[:, 2:].max(0)], out_box,
+                         rng, inside)
+        if spot is None:
+            break
+        for e in group:
+            _insert(placed, (e, *spot), kinds)
+            gap[int(kinds[e])] -= 1
+    for k, g in missing().items():
+        if -g > max(0.5, DENSITY_TOL * want[k]):
+            placed = _thin(placed, boxes, kinds, k, int(round(-g)), out_box, inside)
+    return placed
+
+
+def overlap_limits(boxes: np.ndarray, kinds: np.ndarray, cut: np.ndarray,
+                   margin: float = 0.05) -> np.ndarray:
+    """Largest box IoU of two whole exemplar elements, per kind pair, plus ``margin``.
+    Shape: -> (K, K)."""
+    from cvt.reconstruction import box_iou
+
+    n = int(kinds.max()) + 1
+    iou = box_iou(boxes, boxes)
+    np.fill_diagonal(iou, 0)
+    iou[cut] = iou[:, cut] = 0
+    lim = np.zeros((n, n))
+    np.maximum.at(lim, (kinds[:, None].repeat(len(kinds), 1), kinds[None].repeat(len(kinds), 0)),
+                  iou)
+    return lim + margin
+
+
+def drop_overlaps(placed: list[Placed], boxes: np.ndarray, kinds: np.ndarray,
+                  limits: np.ndarray) -> list[Placed]:
+    """Drop copies overlapping an earlier kept copy more than any two exemplar elements of
+    those kinds overlap (stacked duplicates, clashes the exemplar never shows)."""
+    from cvt.reconstruction import box_iou
+
+    if len(placed) < 2:
+        return placed
+    iou = box_iou(moved_boxes(placed, boxes), moved_boxes(placed, boxes))
+    kk = kinds[[p[0] for p in placed]]
+    bad = iou > limits[kk[:, None], kk[None, :]]
+    np.fill_diagonal(bad, False)
+    keep = np.zeros(len(placed), bool)
+    for i in range(len(placed)):
+        keep[i] = not (bad[i] & keep).any()
+    return [p for p, k in zip(placed, keep, strict=True) if k]
+
+
+def _centres(placed: list[Placed], boxes: np.ndarray) -> np.ndarray:
+    mb = moved_boxes(placed, boxes)
+    return (mb[:, :2] + mb[:, 2:]) / 2
+
+
+def _centred(placed, boxes, kinds, k, out_box, inside) -> np.ndarray:
+    """Copies of kind k whose centre is on the canvas (and in the domain). Shape: (P,) bool."""
+    if not placed:
+        return np.zeros(0, bool)
+    c = _centres(placed, boxes)
+    x0, y0, x1, y1 = out_box
+    on = (c[:, 0] >= x0) & (c[:, 0] < x1) & (c[:, 1] >= y0) & (c[:, 1] < y1)
+    if inside is not None:
+        on &= inside(c)
+    return on & (kinds[[p[0] for p in placed]] == k)
+
+
+def _emptiest(placed, boxes, box, out_box, rng, inside) -> tuple[float, float] | None:
+    """Translation putting ``box`` where it has the most clearance to every placed box."""
+    x0, y0, x1, y1 = out_box
+    centre = (box[:2] + box[2:]) / 2
+    half = (box[2:] - box[:2]) / 2
+    spots = rng.uniform([x0, y0], [x1, y1], size=(CANDIDATES, 2))  # (S, 2) centres
+    if inside is not None:
+        spots = spots[inside(spots)]
+    if not len(spots):
+        return None
+    if placed:
+        mb = moved_boxes(placed, boxes)  # (P, 4)
+        gap = np.maximum(np.abs(spots[:, None] - (mb[None, :, :2] + mb[None, :, 2:]) / 2)
+                         - half - (mb[None, :, 2:] - mb[None, :, :2]) / 2, 0)  # (S, P, 2)
+        clear = np.linalg.norm(gap, axis=2).min(1)  # (S,)
+        over = np.clip(np.minimum(spots[:, None] + half, mb[None, :, 2:])
+                       - np.maximum(spots[:, None] - half, mb[None, :, :2]), 0, None).prod(-1)
+        best = int(np.lexsort((-clear, over.sum(1)))[0])
+    else:
+        best = 0
+    d = spots[best] - centre
+    return float(d[0]), float(d[1])
+
+
+def _insert(placed: list[Placed], p: Placed, kinds: np.ndarray) -> None:
+    last = max((i for i, q in enumerate(placed) if kinds[q[0]] == kinds[p[0]]), default=None)
+    if last is None:  # above the copies of lower elements (input z order)
+        last = max((i for i, q in enumerate(placed) if q[0] < p[0]), default=-1)
+    placed.insert(last + 1, p)
+
+
+def _thin(placed, boxes, kinds, k, n, out_box, inside) -> list[Placed]:
+    """Drop the n copies of kind k (centre on the canvas) that overlap same-kind copies most,
+    elements touching others (pairs) last."""
+    from cvt.companions import touches
+
+    on = np.nonzero(_centred(placed, boxes, kinds, k, out_box, inside))[0]
+    mb = moved_boxes([placed[i] for i in on], boxes)
+    inter = np.clip(np.minimum(mb[:, None, 2:], mb[None, :, 2:])
+                    - np.maximum(mb[:, None, :2], mb[None, :, :2]), 0, None).prod(-1)
+    np.fill_diagonal(inter, 0)
+    hosting = touches(moved_boxes(placed, boxes)).any(0)[on]  # keep elements in pairs
+    alive = np.ones(len(on), bool)
+    for _ in range(min(n, len(on))):
+        score = (inter * alive[None]).sum(1) - 1e30 * hosting
+        score[~alive] = -np.inf
+        alive[int(np.argmax(score))] = False
+    drop = set(on[~alive].tolist())
+    return [p for i, p in enumerate(placed) if i not in drop]

@@ -1,0 +1,147 @@
+"""A pattern from an exemplar, end to end: lattice or the seed's method, then the canvas.
+
+1. A near-periodic exemplar keeps its lattice (cvt.lattice): the cell's motifs are tiled.
+   Everything else goes to the seed's synthesis (``method``, cvt.baselines).
+2. The canvas (cvt.canvas): fragments only where the border cuts them, nothing entirely off
+   the canvas or the domain, each kind at the exemplar's density.
+3. ``tileable``: the result wraps around (cvt.tileable); the seed's method then runs on a
+   canvas ``TILE_MARGIN`` larger on every side and the window is taken from its interior.
+
+The background (cvt.background) is drawn under it all by :func:`pattern_svg`.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+
+import numpy as np
+
+from cvt.baselines import run_method
+from cvt.canvas import (
+    composites,
+    drop_overlaps,
+    keep_on_canvas,
+    kind_rates,
+    overlap_limits,
+    repair_density,
+)
+from cvt.companions import companion_kinds, drop_orphans
+from cvt.domain import Domain
+from cvt.kinds import cut_mask, element_kinds
+from cvt.lattice import detect_lattice, lattice_copies
+from cvt.reconstruction import Placement
+from cvt.svg import Exemplar, to_svg
+from cvt.synthesis import SynthesisConfig, SynthesisResult
+
+TILE_MARGIN = 0.25  # extra border synthesized around a tileable output, in exemplar sizes
+
+
+@dataclass(frozen=True)
+class PatternOptions:
+    lattice: bool = True  # tile the cell of near-periodic exemplars
+    density: bool = True  # bring each kind to the exemplar's density
+    tileable: bool = False  # output repeats seamlessly
+    domain: Domain | None = None  # fill this region (already fitted to the canvas)
+    clip: bool = False  # clip elements crossing the canvas (or domain) border
+
+
+@dataclass
+class Pattern:
+    placements: list[tuple[int, float, float]]  # (element, dx, dy), bottom to top
+    size: tuple[float, float]
+    notes: list[str]
+    result: SynthesisResult | None = None  # the seed's synthesis, when it ran
+    lattice: object | None = None
+
+
+def synthesize_pattern(ex: Exemplar, size: tuple[float, float], cfg: SynthesisConfig,
+                       method: str = "full", opts: PatternOptions = PatternOptions(),
+                       on_iteration=None) -> Pattern:
+    vx, vy = ex.viewbox[:2]
+    out_box = (vx, vy, vx + size[0], vy + size[1])
+    boxes = np.stack([e.bbox for e in ex.elements])  # (E, 4)
+    cut = cut_mask(ex.elements, ex.viewbox)
+    notes = []
+    if cut.all():  # nothing whole to copy: the cut pieces are all the exemplar has
+        cut[:] = False
+        notes.append("every element is cut by the border: pieces used as elements")
+    kinds = element_kinds(ex.elements, cut)
+    if method == "random":
+        res = run_method(method, ex, size, cfg)
+        return Pattern(_placed(res), size, notes, res)
+    placed, res, lat = _arrange(ex, size, cfg, method, opts, boxes, cut, kinds, notes,
+                                on_iteration)
+    inside = opts.domain.contains if opts.domain is not None else None
+    placed = keep_on_canvas(placed, boxes, cut, out_box, inside)
+    if opts.density and (lat is None or opts.domain is not None or opts.tileable):
+        area = opts.domain.area if opts.domain is not None else size[0] * size[1]
+        placed = _repair(placed, ex, boxes, cut, kinds, out_box, area, cfg.seed, inside)
+    if opts.tileable:
+        from cvt.tileable import wrap_around
+
+        placed = wrap_around(placed, boxes, out_box)
+    return Pattern(placed, size, notes, res, lat)
+
+
+def _arrange(ex, size, cfg, method, opts, boxes, cut, kinds, notes, on_iteration):
+    """Placements from the lattice, the seed's method, or none. Returns (placed, result,
+    lattice) and appends what it did to ``notes``."""
+    vx, vy = ex.viewbox[:2]
+    lat = None
+    if opts.lattice:
+        centers = (boxes[:, :2] + boxes[:, 2:]) / 2
+        lat = detect_lattice(centers, kinds, boxes, ~cut, ex.viewbox)
+    if lat is not None:
+        notes.append(f"lattice: periods ({lat.a[0]:.4g}, {lat.a[1]:.4g}) and ({lat.b[0]:.4g}, "
+                     f"{lat.b[1]:.4g}), {len(lat.reps)} motif(s) per cell, explains "
+                     f"{lat.explained:.0%} of the exemplar")
+        return lattice_copies(lat, boxes, (vx, vy, vx + size[0], vy + size[1])), None, lat
+    if (~cut).sum() >= 2:
+        # A tileable output is cut from the interior of a larger one: the canvas border of a
+        # synthesis is packed differently, and the wrap-around would bring it to the seam.
+        m = TILE_MARGIN * ex.size if opts.tileable else 0.0
+        res = run_method(method, ex, (size[0] + 2 * m, size[1] + 2 * m), cfg, on_iteration)
+        notes.append(f"no lattice: {method} synthesis")
+        return [(e, dx - m, dy - m) for e, dx, dy in _placed(res)], res, None
+    notes.append("fewer than two whole elements: placed at the exemplar's density")
+    return [], None, None
+
+
+def _repair(placed, ex, boxes, cut, kinds, out_box, area, seed, inside):
+    """No clashes the exemplar never shows, companions paired, each kind at its density."""
+    rates = kind_rates(boxes, kinds, cut, ex.viewbox)
+    pairs = companion_kinds(boxes, kinds, cut)
+    placed = drop_overlaps(placed, boxes, kinds, overlap_limits(boxes, kinds, cut))
+    rng = np.random.default_rng(seed)
+    for _ in range(2):  # thinning can orphan a companion: drop it and repair again
+        placed = drop_orphans(placed, boxes, kinds, pairs)
+        placed = repair_density(placed, boxes, kinds, rates, composites(boxes, cut), out_box,
+                                area, rng, inside)
+    return placed
+
+
+def _placed(res: SynthesisResult) -> list[tuple[int, float, float]]:
+    return [(p.element, p.dx, p.dy) for p in res.placements]
+
+
+def as_result(pattern: Pattern) -> SynthesisResult:
+    """The pattern as a SynthesisResult (for code that reads placements from one)."""
+    res = pattern.result or SynthesisResult([], pattern.size, [], [])
+    pls = [Placement(k, e, dx, dy, 0.0, e) for k, (e, dx, dy) in enumerate(pattern.placements)]
+    return dataclasses.replace(res, placements=pls)
+
+
+def pattern_svg(ex: Exemplar, pattern: Pattern, opts: PatternOptions = PatternOptions()) -> str:
+    """SVG text: the background over the output canvas, then the placed elements."""
+    from cvt.background import backdrop_nodes
+
+    vx, vy = ex.viewbox[:2]
+    out_box = (vx, vy, vx + pattern.size[0], vy + pattern.size[1])
+    if opts.domain is not None:
+        clip = opts.domain.svg_path()
+    else:
+        x0, y0, x1, y1 = out_box
+        clip = f"M{x0:.6g},{y0:.6g} H{x1:.6g} V{y1:.6g} H{x0:.6g} Z" if opts.clip else None
+    return to_svg(ex, pattern.placements, pattern.size, backdrop_nodes(ex, out_box), clip,
+                  opts.clip)

@@ -1,0 +1,70 @@
+"""Kinds, fragments and lattices (cvt/kinds.py, cvt/lattice.py)."""
+
+import numpy as np
+
+from cvt.kinds import cut_mask, element_kinds
+from cvt.lattice import detect_lattice, lattice_copies
+from cvt.svg import parse_svg
+
+NS = 'xmlns="http://www.w3.org/2000/svg"'
+X = '<path d="M{0},{1} l4,4 M{2},{1} l-4,4" stroke="black" stroke-width="1" fill="none"/>'
+O = '<circle cx="{0}" cy="{1}" r="2" fill="none" stroke="black"/>'
+
+
+def _grid(n: int = 6, step: float = 10.0, jitter: float = 0.0, seed: int = 0) -> bytes:
+    rng = np.random.default_rng(seed)
+    body = []
+    for i in range(n):
+        for j in range(n):
+            x, y = 5 + i * step + rng.normal(0, jitter), 5 + j * step + rng.normal(0, jitter)
+            if (i + j) % 2:
+                body.append(X.format(x - 2, y - 2, x + 2))
+            else:
+                body.append(O.format(x, y))
+    side = n * step
+    return f'<svg {NS} viewBox="0 0 {side:g} {side:g}">{"".join(body)}</svg>'.encode()
+
+
+def _analyse(ex):
+    boxes = np.stack([e.bbox for e in ex.elements])
+    cut = cut_mask(ex.elements, ex.viewbox)
+    kinds = element_kinds(ex.elements, cut)
+    return boxes, cut, kinds, (boxes[:, :2] + boxes[:, 2:]) / 2
+
+
+def test_x_and_o_are_different_kinds():
+    ex = parse_svg(_grid(2))
+    _, _, kinds, _ = _analyse(ex)
+    assert len(set(kinds.tolist())) == 2 and kinds[0] != kinds[1]
+
+
+def test_fragments_are_cut_on_the_border_but_tangent_dots_are_whole():
+    doc = (f'<svg {NS} viewBox="0 0 20 20"><path d="M0,5 A5,5 0 0 1 0,15 Z"/>'
+           '<circle cx="3" cy="3" r="3"/><circle cx="10" cy="10" r="2"/>'
+           '<circle cx="19" cy="10" r="3"/></svg>').encode()
+    cut = cut_mask(parse_svg(doc).elements, (0, 0, 20, 20))
+    assert cut.tolist() == [True, False, False, False]  # half disc; tangent; inside; past
+
+
+def test_checkerboard_of_x_and_o_has_a_lattice_and_tiles_it():
+    ex = parse_svg(_grid())
+    boxes, cut, kinds, centers = _analyse(ex)
+    lat = detect_lattice(centers, kinds, boxes, ~cut, ex.viewbox)
+    assert lat is not None and len(lat.reps) == 2 and lat.explained > 0.95
+    area = abs(lat.a[0] * lat.b[1] - lat.a[1] * lat.b[0])
+    assert np.isclose(area, 200)  # one X and one O per cell of 2 x 10 x 10
+    copies = lattice_copies(lat, boxes, (0, 0, 120, 120))
+    c = np.array([(centers[e] + [dx, dy]).round(6) for e, dx, dy in copies])
+    assert len(c) == len(np.unique(c, axis=0)) == 144  # no stacked duplicates, no holes
+    assert {kinds[e] for e, _, _ in copies} == set(kinds.tolist())
+
+
+def test_jittered_grid_still_has_a_lattice_but_a_random_layout_has_none():
+    ex = parse_svg(_grid(jitter=0.4))
+    boxes, cut, kinds, centers = _analyse(ex)
+    assert detect_lattice(centers, kinds, boxes, ~cut, ex.viewbox) is not None
+    rng = np.random.default_rng(1)
+    body = "".join(O.format(*rng.uniform(3, 57, 2)) for _ in range(30))
+    ex = parse_svg(f'<svg {NS} viewBox="0 0 60 60">{body}</svg>'.encode())
+    boxes, cut, kinds, centers = _analyse(ex)
+    assert detect_lattice(centers, kinds, boxes, ~cut, ex.viewbox) is None
