@@ -57,16 +57,12 @@ class CurveGraph:
         new[idx] = torch.arange(idx.numel())
         e = new[self.edges] if self.edges.numel() else self.edges
         e = e[(e >= 0).all(1)] if e.numel() else e
-        return CurveGraph(self.pos[idx], self.style[idx], self.kind[idx], self.element[idx],
-                          self.exist[idx], self.source[idx], e, self.styles)
+        return CurveGraph(*(getattr(self, f)[idx] for f in _PER_SAMPLE), e, self.styles)
 
     def cat(self, other: CurveGraph) -> CurveGraph:
         """Both graphs side by side (``other``'s styles must be the same list)."""
-        return CurveGraph(torch.cat([self.pos, other.pos]), torch.cat([self.style, other.style]),
-                          torch.cat([self.kind, other.kind]),
-                          torch.cat([self.element, other.element]),
-                          torch.cat([self.exist, other.exist]), torch.cat([self.source, other.source]),
-                          torch.cat([self.edges, other.edges + len(self)]), self.styles)
+        cat = [torch.cat([getattr(self, f), getattr(other, f)]) for f in _PER_SAMPLE]
+        return CurveGraph(*cat, torch.cat([self.edges, other.edges + len(self)]), self.styles)
 
     def with_edges(self, edges: torch.Tensor) -> CurveGraph:
         return self.with_(edges=canonical_edges(edges))
@@ -77,6 +73,9 @@ class CurveGraph:
             nbr[a].append(b)
             nbr[b].append(a)
         return nbr
+
+
+_PER_SAMPLE = ("pos", "style", "kind", "element", "exist", "source")
 
 
 def canonical_edges(edges: torch.Tensor) -> torch.Tensor:

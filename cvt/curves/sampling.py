@@ -198,7 +198,7 @@ def _pieces(st: Stroke, ev, length: float, delta: float, bld: _Builder) -> None:
         ev = [(0.0, bld.uf.add(), st.points[0])]
     nodes = [bld.junction(n, p, st.style) for _, n, p in ev]
     arcs = [s for s, _, _ in ev]
-    spans = list(zip(range(len(ev) - 1), range(1, len(ev))))
+    spans = [(k, k + 1) for k in range(len(ev) - 1)]
     if st.closed:
         spans.append((len(ev) - 1, 0))
     for i, j in spans:
@@ -237,7 +237,7 @@ def exemplar_graph(cx: CurveExemplar, delta: float) -> CurveGraph:
     g = stroke_graph(cx.strokes, cx.styles, delta)
     if not cx.elements:
         return g
-    centers = torch.from_numpy(cx.element_centers())
+    centers = torch.from_numpy(cx.element_centers()[cx.elements])
     boxes = [cx.exemplar.elements[i].bbox for i in cx.elements]
     sig = [(round((b[2] - b[0]) / delta * 2), round((b[3] - b[1]) / delta * 2)) for b in boxes]
     kinds = {s: k for k, s in enumerate(dict.fromkeys(sig))}

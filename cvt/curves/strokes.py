@@ -39,8 +39,8 @@ class CurveExemplar:
         return x, y, x + w, y + h
 
     def element_centers(self) -> np.ndarray:
-        """Shape: -> (D, 2) bounding-box centres of the discrete elements."""
-        b = [self.exemplar.elements[i].bbox for i in self.elements]
+        """Shape: -> (E_all, 2) bounding-box centres of all exemplar elements, by index."""
+        b = [e.bbox for e in self.exemplar.elements]
         return np.array([[(x0 + x1) / 2, (y0 + y1) / 2] for x0, y0, x1, y1 in b]).reshape(-1, 2)
 
 
