@@ -1,9 +1,10 @@
 """Final clean-up of a synthesized graph: no stubs or specks the exemplar does not have.
 
 A spur is a chain from an end (degree 1) to a junction (degree >= 3); a speck is a connected
-component. Output spurs shorter (in edges) than the exemplar's shortest spur, and output
-components smaller (in samples) than its smallest component, are removed: optimization
-left-overs that would show as dangling stubs and dots.
+component away from the border. Output spurs shorter (in edges) than the exemplar's shortest
+spur, and output specks smaller (in samples) than the exemplar's smallest one (at least 3), are
+removed: optimization left-overs that would show as dangling stubs and dots. Components that
+touch the border are left alone (the border cuts them, in the exemplar too).
 """
 
 from __future__ import annotations
@@ -30,25 +31,32 @@ def spurs(g: CurveGraph) -> list[list[int]]:
     return out
 
 
-def _curve_components(g: CurveGraph) -> np.ndarray:
-    """Samples per connected component, per curve sample. Shape: -> (N,) (0 for elements)."""
+def specks(g: CurveGraph, box, margin: float) -> np.ndarray:
+    """Samples per component, per curve sample of a component that stays ``margin`` inside
+    ``box``; 0 elsewhere. Shape: -> (N,)."""
     _, lab = components(len(g), g.edges.numpy())
+    pos = g.pos.numpy()
+    x0, y0, x1, y1 = box
+    rim = ((pos[:, 0] < x0 + margin) | (pos[:, 0] > x1 - margin) | (pos[:, 1] < y0 + margin)
+           | (pos[:, 1] > y1 - margin))
+    touches = np.bincount(lab, weights=rim.astype(float)) > 0
     size = np.bincount(lab)[lab]
-    return np.where(g.kind.numpy() < 0, size, 0)
+    return np.where((g.kind.numpy() < 0) & ~touches[lab], size, 0)
 
 
-def prune(out: CurveGraph, exemplar: CurveGraph, keep: int = 0, rounds: int = 2) -> CurveGraph:
-    """Remove spurs and components smaller than the exemplar's; the first ``keep`` samples
-    (a user's strokes) always stay."""
+def prune(out: CurveGraph, exemplar: CurveGraph, in_box, out_box, delta: float, keep: int = 0,
+          rounds: int = 2) -> CurveGraph:
+    """Remove spurs and specks smaller than the exemplar's; the first ``keep`` samples (a
+    user's strokes) always stay."""
     ex_spur = min((len(c) for c in spurs(exemplar)), default=10**9)
-    ex_comp = _curve_components(exemplar)
-    min_comp = int(ex_comp[ex_comp > 0].min()) if (ex_comp > 0).any() else 1
+    ex_comp = specks(exemplar, in_box, 1.5 * delta)
+    min_comp = int(ex_comp[ex_comp > 0].min()) if (ex_comp > 0).any() else 3
     for _ in range(rounds):
         drop = np.zeros(len(out), dtype=bool)
         for chain in spurs(out):
             if len(chain) < ex_spur:
                 drop[chain] = True
-        comp = _curve_components(out)
+        comp = specks(out, out_box, 1.5 * delta)
         drop |= (comp > 0) & (comp < min_comp)
         drop[:keep] = False
         if not drop.any():

@@ -31,7 +31,9 @@ def occurrences(m: Matches) -> tuple[torch.Tensor, torch.Tensor]:
 def edge_votes(m: Matches, out: CurveGraph, inp: CurveGraph, reach: float):
     """Candidate output edges with their expected confidence.
 
-    Only pairs closer than ``reach`` are candidates. Shape: -> (C, 2) long, (C,) float.
+    Pairs closer than ``reach`` in some neighborhood are candidates, also those without votes
+    (eq. 22 may still join two samples short of their expected degree). Shape: -> (C, 2) long,
+    (C,) float.
     """
     outs, ins = occurrences(m)  # (N, K + 1)
     k1 = outs.shape[1]
@@ -51,9 +53,7 @@ def edge_votes(m: Matches, out: CurveGraph, inp: CurveGraph, reach: float):
     uniq, inv = torch.unique(key, return_inverse=True)
     conf = torch.zeros(len(uniq), dtype=torch.float64).index_add_(0, inv, vote)
     conf /= torch.bincount(inv, minlength=len(uniq)).double()
-    pairs = torch.stack([uniq // len(out), uniq % len(out)], 1)
-    keep = conf > 0
-    return pairs[keep], conf[keep]
+    return torch.stack([uniq // len(out), uniq % len(out)], 1), conf
 
 
 def expected_degree(m: Matches, out: CurveGraph, inp: CurveGraph) -> torch.Tensor:
@@ -70,6 +70,17 @@ def expected_degree(m: Matches, out: CurveGraph, inp: CurveGraph) -> torch.Tenso
     return torch.where(count > 0, total / count.clamp_min(1), out.degree().double())
 
 
+def _continues(pos: np.ndarray, last: dict[int, int], a: int, b: int,
+               cos_max: float = -0.3) -> bool:
+    """A weakly voted edge must continue the strokes it joins, not fold back along them."""
+    for x, y in ((a, b), (b, a)):
+        if x in last:
+            u, v = pos[last[x]] - pos[x], pos[y] - pos[x]
+            if u @ v > cos_max * np.linalg.norm(u) * np.linalg.norm(v):
+                return False
+    return True
+
+
 def assign_edges(m: Matches, out: CurveGraph, inp: CurveGraph, reach: float,
                  keep: torch.Tensor | None = None) -> torch.Tensor:
     """Greedy eq. 22 over candidates in decreasing confidence. ``keep`` (E', 2): edges that
@@ -83,16 +94,21 @@ def assign_edges(m: Matches, out: CurveGraph, inp: CurveGraph, reach: float,
         fixed = set(edge_keys(keep, len(out)).tolist())
     else:
         fixed = set()
-    order = torch.argsort(conf, descending=True, stable=True)
+    dist = (out.pos[pairs[:, 0]] - out.pos[pairs[:, 1]]).norm(dim=1)
+    order = np.lexsort((dist.numpy(), -conf.numpy()))  # confident first, then short
+    pos = out.pos.numpy()
+    last = {}  # sample -> the neighbour of its first chosen edge
     for (a, b), c in zip(pairs[order].tolist(), conf[order].tolist(), strict=True):
         if a * len(out) + b in fixed:
             continue
         on = (1 - c) ** 2 + (deg[a] + 1 - want[a]) ** 2 + (deg[b] + 1 - want[b]) ** 2
         off = c * c + (deg[a] - want[a]) ** 2 + (deg[b] - want[b]) ** 2
-        if on < off:
+        if on < off and (c >= 0.5 or _continues(pos, last, a, b)):
             chosen.append((a, b))
             deg[a] += 1
             deg[b] += 1
+            last.setdefault(a, b)
+            last.setdefault(b, a)
     new = torch.tensor(chosen, dtype=torch.long).reshape(-1, 2)
     if keep is not None and keep.numel():
         new = torch.cat([new, keep])

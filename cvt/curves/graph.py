@@ -100,3 +100,23 @@ def components(n: int, edges: np.ndarray) -> tuple[int, np.ndarray]:
 
     m = coo_matrix((np.ones(len(edges)), (edges[:, 0], edges[:, 1])), shape=(n, n))
     return connected_components(m, directed=False)
+
+
+def nearest_edges(g: CurveGraph, reach: float, k: int = 2) -> torch.Tensor:
+    """Each curve sample joined to its ``k`` nearest curve samples of the same style within
+    ``reach`` (reconnecting samples synthesized without edges). Shape: -> (E, 2)."""
+    from scipy.spatial import cKDTree
+
+    idx = torch.nonzero(g.kind < 0).flatten().numpy()
+    if len(idx) < 2:
+        return torch.zeros(0, 2, dtype=torch.long)
+    pos = g.pos.numpy()[idx]
+    dist, nb = cKDTree(pos).query(pos, k=k + 1, distance_upper_bound=reach)
+    a = np.repeat(np.arange(len(idx)), k)
+    b = nb[:, 1:].reshape(-1)
+    ok = np.isfinite(dist[:, 1:].reshape(-1))
+    a, b = a[ok], b[ok]
+    style = g.style.numpy()[idx]
+    same = style[a] == style[b]
+    e = np.stack([idx[a[same]], idx[b[same]]], 1)
+    return canonical_edges(torch.from_numpy(e))

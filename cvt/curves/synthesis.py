@@ -21,7 +21,7 @@ import torch
 from cvt.assignment import assign_positions
 from cvt.curves.edges import assign_edges
 from cvt.curves.existence import existence, missing_samples
-from cvt.curves.graph import CurveGraph
+from cvt.curves.graph import CurveGraph, nearest_edges
 from cvt.curves.init import box_inside, patch_init
 from cvt.curves.reconstruction import trace_paths
 from cvt.curves.sampling import exemplar_graph, stroke_graph
@@ -176,9 +176,10 @@ def _assign(out: CurveGraph, m, s: _Level, cfg: CurveConfig) -> CurveGraph:
     pos[: s.n_fixed] = out.pos[: s.n_fixed]
     out = out.with_(pos=pos, style=_voted_style(out, m, s))
     if cfg.connectivity:
-        out = out.with_(edges=assign_edges(m, out, s.inp, cfg.reach * s.lv.delta,
-                                           keep=s.fixed_edges))
-    return out
+        edges = assign_edges(m, out, s.inp, cfg.reach * s.lv.delta, keep=s.fixed_edges)
+    else:  # the no-connectivity baseline: samples only, joined to their nearest afterwards
+        edges = nearest_edges(out, 1.6 * s.lv.delta)
+    return out.with_(edges=edges)
 
 
 def _voted_style(out: CurveGraph, m, s: _Level) -> torch.Tensor:
