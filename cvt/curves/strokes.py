@@ -45,9 +45,26 @@ class CurveExemplar:
 
 
 def curve_share(ex: Exemplar) -> float:
-    """Share of the exemplar's shapes that are strokes without fill (auto-detects curves)."""
+    """Share of the exemplar's shapes that are strokes without fill."""
     shapes = [s for e in ex.elements for s in e.shapes]
     return sum(not s.filled and s.stroke_width > 0 for s in shapes) / max(len(shapes), 1)
+
+
+def looks_like_curves(ex: Exemplar, min_share: float = 0.25, long: float = 0.35) -> bool:
+    """Auto-detection of curve content: enough unfilled strokes, and they connect (junctions
+    or crossings) or run long (a stroke longer than ``long`` x the exemplar size). Separate
+    short strokes (rings, swirls, hatching) stay discrete elements."""
+    from cvt.curves.sampling import stroke_graph
+
+    if curve_share(ex) < min_share:
+        return False
+    try:
+        cx = curve_exemplar(ex)
+    except InputError:
+        return False
+    if max(_length(s.points, s.closed) for s in cx.strokes) >= long * ex.size:
+        return True
+    return bool((stroke_graph(cx.strokes, cx.styles, ex.size / 36).degree() >= 3).any())
 
 
 def _length(points: np.ndarray, closed: bool) -> float:

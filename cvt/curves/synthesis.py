@@ -93,27 +93,30 @@ def synthesize_curves(cx: CurveExemplar, size: tuple[float, float],
     cfg = config or CurveConfig()
     threads = torch.get_num_threads()
     torch.set_num_threads(cfg.threads)
+    x0, y0, _, _ = cx.box
     try:
-        return _run(cx, size, cfg, inside, None, None, on_iteration)
+        return run_boxed(cx, (x0, y0, x0 + size[0], y0 + size[1]), cfg, inside, None,
+                         on_iteration)
     finally:
         torch.set_num_threads(threads)
 
 
-def _run(cx, size, cfg: CurveConfig, inside, fixed: CurveGraph | None, init: CurveGraph | None,
-         on_iteration) -> CurveResult:
+def run_boxed(cx: CurveExemplar, out_box, cfg: CurveConfig, inside: Inside | None,
+              fixed: Callable[[float], CurveGraph] | None, on_iteration=None) -> CurveResult:
+    """The synthesis into ``out_box`` (x0, y0, x1, y1), around the graph ``fixed(delta)``
+    (sampled at each level's spacing; its styles index ``cx.styles``)."""
     t0 = time.perf_counter()
     gen = torch.Generator().manual_seed(cfg.seed)
-    x0, y0, _, _ = cx.box
-    out_box = (x0, y0, x0 + size[0], y0 + size[1])
+    size = (out_box[2] - out_box[0], out_box[3] - out_box[1])
     domain = box_inside(out_box, inside)
     levels = [cfg.level(cx.exemplar.size, k) for k in range(cfg.levels)]
     res = CurveResult(CurveGraph.empty(cx.styles), size, levels[-1].delta)
     res.inputs = [exemplar_graph(cx, lv.delta) for lv in levels]
-    out = init if init is not None else patch_init(res.inputs[0], cx.box, out_box,
-                                                   2 * levels[0].radius, domain, gen)
+    out = patch_init(res.inputs[0], cx.box, out_box, 2 * levels[0].radius, domain, gen)
     for li, lv in enumerate(levels):
-        out = _drop_near(out, fixed, lv.delta) if fixed is not None else out
-        state = _level_state(lv, res.inputs[li], cx, cfg, domain, fixed)
+        held = fixed(lv.delta) if fixed is not None else None
+        out = _drop_near(out, held, lv.delta) if held is not None else out
+        state = _level_state(lv, res.inputs[li], cx, cfg, domain, held)
         out = _run_level(li, state, out, cfg, gen, res, on_iteration)
         res.samples_per_level.append(len(out))
         if li + 1 < len(levels):
