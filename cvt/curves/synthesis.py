@@ -157,6 +157,10 @@ def _run_level(li: int, s: _Level, out: CurveGraph, cfg: CurveConfig, gen, res: 
         res.energies.append((li, it, m.energy))
         if it + 1 < cfg.iterations:
             out, field_ = _existence(out, m, s, field_)
+        else:  # the domain constraint also holds after the last move
+            keep = s.inside(out.pos)
+            keep[: s.n_fixed] = True
+            out = out.select(torch.nonzero(keep).flatten())
         if on_iteration is not None:
             on_iteration(li, it, out, m.energy)
     return out
