@@ -45,17 +45,18 @@ def measure(svg: str, box, delta: float):
     return graph_stats(g, box, delta)
 
 
-def evaluate(name: str, scale: float, out_dir: Path | None, seed: int) -> dict:
+def evaluate(name: str, scale: float, out_dir: Path | None, cfg: CurveConfig,
+             methods=METHODS) -> dict:
     path = EXEMPLARS / f"{name}.svg"
     cx = load_curves(path)
     x, y, w, h = cx.exemplar.viewbox
     size = (scale * w, scale * h)
-    cfg = CurveConfig(seed=seed)
+    seed = cfg.seed
     delta = cfg.level(cx.exemplar.size, cfg.levels - 1).delta
     ref = measure(path.read_text(), cx.box, delta)
     ref_img = render_svg(path.read_text())
     row = {"exemplar": name, "samples_in": ref.samples}
-    for method in METHODS:
+    for method in methods:
         t = time.perf_counter()
         g, _ = run_curves(method, cx, size, cfg)
         seconds = time.perf_counter() - t
@@ -102,16 +103,28 @@ def main() -> None:
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--out", type=Path, help="write the markdown table here (and .json)")
     ap.add_argument("--svg-dir", type=Path, help="keep the output SVGs here")
+    ap.add_argument("--only", choices=METHODS, help="run one method (no summary table)")
+    ap.add_argument("--set", nargs="*", default=[], metavar="KEY=VALUE",
+                    help="CurveConfig overrides, e.g. --set iterations=10 c_out=3")
     args = ap.parse_args()
+    over = {k: type(getattr(CurveConfig, k))(v) for k, v in (a.split("=") for a in args.set)}
+    cfg = CurveConfig(seed=args.seed, **over)
+    methods = (args.only,) if args.only else METHODS
     torch.set_num_threads(1)
     names = args.names or sorted(p.stem for p in EXEMPLARS.glob("*.svg"))
     if args.svg_dir:
         args.svg_dir.mkdir(parents=True, exist_ok=True)
     rows = []
     for name in names:
-        rows.append(evaluate(name, args.scale, args.svg_dir, args.seed))
+        rows.append(evaluate(name, args.scale, args.svg_dir, cfg, methods))
         print(" | ".join(f"{m}: " + " ".join(f"{rows[-1][m][k]:.2f}" for k in TARGET)
-                         for m in METHODS), "<-", name, flush=True)
+                         + f" {rows[-1][m]['seconds']:.1f}s" for m in methods), "<-", name,
+              flush=True)
+    if args.only:
+        for k in TARGET:
+            print(k, "median", np.median([r[args.only][k] for r in rows]),
+                  "within 0.15:", sum(r[args.only][k] <= 0.15 for r in rows), "/", len(rows))
+        return
     text = "\n".join(table(rows) + summary(rows)) + "\n"
     print(text)
     if args.out:

@@ -63,3 +63,4 @@ def prune(out: CurveGraph, exemplar: CurveGraph, in_box, out_box, delta: float, 
             break
         out = out.select(torch.from_numpy(np.nonzero(~drop)[0]))
     return out
+

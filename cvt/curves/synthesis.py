@@ -40,13 +40,13 @@ class CurveConfig:
     levels: int = 3
     iterations: int = 7
     deltas: tuple[float, ...] = (1 / 18, 1 / 26, 1 / 36)  # sampling distance / exemplar size
-    radius: float = 3.0  # neighborhood radius in sampling distances
+    radius: float = 4.0  # neighborhood radius in sampling distances
     k_max: int = 16
     in_margin: float = 1.5  # input neighborhoods reach this many deltas farther (cvt)
     k_in_extra: int = 6
     interior_margin: float = 0.5
     c_out: float = 2.5  # cost of an unmatched output sample, in deltas
-    w_edge: float = 1.0  # eq. 5 weight (0 and connectivity=False: the no-connectivity baseline)
+    w_edge: float = 0.5  # eq. 5 weight (0 and connectivity=False: the no-connectivity baseline)
     w_style: float = 1.0
     connectivity: bool = True  # edge assignment (eqs. 17-22)
     first_passes: int = 5
