@@ -90,3 +90,10 @@ def test_auto_detection():
     dots = _svg('<circle cx="20" cy="20" r="5" fill="black"/><circle cx="60" cy="60" r="5" '
                 'stroke="black" fill="none"/>')
     assert not looks_like_curves(parse_svg(dots))
+
+
+def test_huge_zigzag_is_rejected_in_one_line():
+    pts = " L".join(f"{(k % 2) * 100},{k * 1e-3:.3f}" for k in range(20_000))
+    cx = curve_exemplar(parse_svg(_svg(f'<path d="M{pts}" stroke="black" fill="none"/>')))
+    with pytest.raises(InputError, match="too long"):
+        exemplar_graph(cx, 2.0)

@@ -215,6 +215,12 @@ def _pieces(st: Stroke, ev, length: float, delta: float, bld: _Builder) -> None:
 def stroke_graph(strokes: list[Stroke], styles: list[StrokeStyle], delta: float) -> CurveGraph:
     """Sample graph of the strokes: junctions, ends and samples ~``delta`` apart."""
     step = delta / FINE
+    total = sum(_len(s) for s in strokes) / step
+    if total > 4 * MAX_NODES:
+        from neuraltex.errors import InputError
+
+        raise InputError(f"strokes too long for their sampling: {total:,.0f} points at spacing "
+                         f"{step:.3g} (limit {4 * MAX_NODES:,})")
     fine = [Stroke(resample(s.points, s.closed, step), s.closed, s.style) for s in strokes]
     uf = _Union()
     events, lengths = _events(fine, step, 0.3 * delta, uf)
