@@ -97,3 +97,13 @@ def test_huge_zigzag_is_rejected_in_one_line():
     cx = curve_exemplar(parse_svg(_svg(f'<path d="M{pts}" stroke="black" fill="none"/>')))
     with pytest.raises(InputError, match="too long"):
         exemplar_graph(cx, 2.0)
+
+
+def test_self_intersecting_path_gets_a_crossing():
+    t = np.linspace(0, 2 * np.pi, 200, endpoint=False)
+    pts = " L".join(f"{50 + 30 * np.sin(a):.3f},{50 + 20 * np.sin(2 * a):.3f}" for a in t)
+    cx = curve_exemplar(parse_svg(_svg(f'<path d="M{pts} Z" stroke="black" fill="none"/>')))
+    g = exemplar_graph(cx, 4.0)
+    deg = g.degree()
+    assert int((deg == 4).sum()) == 1 and int((deg == 1).sum()) == 0
+    assert torch.allclose(g.pos[deg == 4][0], torch.tensor([50.0, 50.0]).double(), atol=0.5)
