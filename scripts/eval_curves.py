@@ -79,8 +79,9 @@ def summary(rows: list[dict]) -> list[str]:
     for k in TARGET:
         within = sum(r["ours"][k] <= 0.15 for r in rows)
         better = sum(r["ours"][k] < r["no-connectivity"][k] for r in rows)
+        tied = sum(r["ours"][k] == r["no-connectivity"][k] for r in rows)
         lines.append(f"- {k}: ours within 0.15 on {within}/{n}, better than no-connectivity on "
-                     f"{better}/{n}")
+                     f"{better}/{n} (tied on {tied})")
     return lines
 
 
