@@ -36,7 +36,10 @@ def main() -> None:
     for name in args.names:
         cx = load_curves(EXEMPLARS / f"{name}.svg")
         w, h = cx.exemplar.viewbox[2:]
-        n_in = len(exemplar_graph(cx, cfg.level(cx.exemplar.size, cfg.levels - 1).delta))
+        pos = exemplar_graph(cx, cfg.level(cx.exemplar.size, cfg.levels - 1).delta).pos
+        x0, y0, x1, y1 = cx.box  # strokes may run past the viewBox: count what shows
+        n_in = int(((pos[:, 0] >= x0) & (pos[:, 0] <= x1) & (pos[:, 1] >= y0)
+                    & (pos[:, 1] <= y1)).sum())
         scale = math.sqrt(args.target / n_in)
         t = time.perf_counter()
         g, _ = run_curves("ours", cx, (scale * w, scale * h), cfg)
