@@ -148,10 +148,14 @@ def cmd_autocomplete(args) -> int:
         raise InputError("the region to complete is more than 25x the exemplar's area")
     res = autocomplete(cx, partial, box, CurveConfig(levels=args.levels,
                                                      iterations=args.iterations, seed=args.seed))
-    g = res.predicted() if args.only_new else res.graph
     x, y, w, h = partial.exemplar.viewbox
     canvas = replace(cx.exemplar, viewbox=(x, y, w, h), unit_scale=partial.exemplar.unit_scale)
-    write_text_atomic(args.output, curves_svg(canvas, cx.element_centers(), g, (w, h)))
+    text = curves_svg(canvas, cx.element_centers(), res.predicted(), (w, h))
+    if not args.only_new:  # the drawing itself, verbatim, under the prediction
+        drawing = "\n".join(e.markup for e in partial.exemplar.elements)
+        cut = text.index('<g id="curves">')
+        text = text[:cut] + drawing + "\n" + text[cut:]
+    write_text_atomic(args.output, text)
     if args.preview:
         render_png(Path(args.output), Path(args.preview))
     n_new = len(res.graph) - res.n_fixed

@@ -3,8 +3,9 @@
 The user's strokes are sampled at the exemplar's finest spacing and held fixed (positions,
 edges, never removed, never outliers); the region around them is filled by the curve synthesis
 (two levels by default), whose neighborhoods overlap the user's strokes, so the prediction continues
-them and may join them. The result is the predicted strokes (the edges not between two of the
-user's samples), optionally with the user's drawing.
+them and may join them. Drawn samples farther than two coarse radii from the region cannot
+influence it and are left out. The result is the predicted strokes (the edges not between two of
+the user's samples).
 """
 
 from __future__ import annotations
@@ -15,6 +16,7 @@ import torch
 
 from cvt.curves.cleanup import prune
 from cvt.curves.graph import CurveGraph
+from cvt.curves.init import box_inside
 from cvt.curves.sampling import stroke_graph
 from cvt.curves.strokes import CurveExemplar, Stroke
 from cvt.curves.synthesis import CurveConfig, run_boxed
@@ -22,7 +24,7 @@ from cvt.curves.synthesis import CurveConfig, run_boxed
 
 @dataclass
 class Completion:
-    graph: CurveGraph  # the user's samples first (n_fixed of them), then the predicted ones
+    graph: CurveGraph  # the user's samples near the box first (n_fixed), then the predicted
     n_fixed: int
     box: tuple[float, float, float, float]
     seconds: float
@@ -67,8 +69,15 @@ def autocomplete(cx: CurveExemplar, partial: CurveExemplar, box, config: CurveCo
     """Predict strokes inside ``box`` (x0, y0, x1, y1) around the ``partial`` drawing."""
     cfg = config or CurveConfig(levels=2)
     cx, strokes = user_strokes(cx, partial)
-    fixed = len(stroke_graph(strokes, cx.styles, res_delta := cfg.level(cx.exemplar.size,
-                                                                       cfg.levels - 1).delta))
-    res = run_boxed(cx, box, cfg, None, lambda d: stroke_graph(strokes, cx.styles, d))
-    g = prune(res.graph, res.inputs[-1], cx.box, box, res_delta, keep=fixed)
+    reach = 2 * cfg.level(cx.exemplar.size, 0).radius  # farther drawn samples change nothing
+    grown = (box[0] - reach, box[1] - reach, box[2] + reach, box[3] + reach)
+
+    def drawn(delta: float) -> CurveGraph:
+        g = stroke_graph(strokes, cx.styles, delta)
+        return g.select(torch.nonzero(box_inside(grown)(g.pos)).flatten())
+
+    delta = cfg.level(cx.exemplar.size, cfg.levels - 1).delta
+    fixed = len(drawn(delta))
+    res = run_boxed(cx, box, cfg, None, drawn)
+    g = prune(res.graph, res.inputs[-1], cx.box, box, delta, keep=fixed)
     return Completion(g, fixed, box, res.seconds)
