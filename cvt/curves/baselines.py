@@ -15,7 +15,7 @@ from dataclasses import replace
 
 import torch
 
-from cvt.curves.cleanup import prune
+from cvt.curves.cleanup import join_ends, prune
 from cvt.curves.graph import CurveGraph
 from cvt.curves.init import box_inside, patch_init
 from cvt.curves.sampling import exemplar_graph
@@ -42,4 +42,5 @@ def run_curves(method: str, cx: CurveExemplar, size: tuple[float, float], cfg: C
     elif method != "ours":
         raise ValueError(f"method must be one of {METHODS}")
     res = synthesize_curves(cx, size, cfg, inside)
-    return prune(res.graph, res.inputs[-1], cx.box, box, res.delta), res.delta
+    g = join_ends(res.graph, res.inputs[-1], cx.box, box, res.delta)
+    return prune(g, res.inputs[-1], cx.box, box, res.delta), res.delta
