@@ -74,6 +74,13 @@ def synthesize_curves(args, exemplar) -> int:
     if args.method not in CURVE_METHODS:
         raise InputError(f"--method {args.method} is for element patterns; curve patterns "
                          f"take {' or '.join(CURVE_METHODS)}")
+    element_only = {"--debug-dir": args.debug_dir, "--w-f": args.w_f, "--w-l": args.w_l,
+                    "--w-s": args.w_s, "--w-a": args.w_a,
+                    "--init": None if args.init == "patch" else args.init}
+    given = [k for k, v in element_only.items() if v is not None]
+    if given:
+        raise InputError(f"{', '.join(given)}: element-pattern options; this exemplar is "
+                         "synthesized as curves (use --kind elements for the element synthesis)")
     cx = curve_exemplar(exemplar)
     size = _output_size(args, exemplar)
     cfg = CurveConfig(levels=args.levels, iterations=args.iterations, seed=args.seed,

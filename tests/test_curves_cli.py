@@ -89,6 +89,7 @@ def test_bad_options_exit_2(tmp_path, capsys):
                  ["synthesize", str(WAVES), "-o", str(out), "--scale", "1", "--domain",
                   str(WAVES)],
                  ["synthesize", str(WAVES), "-o", str(out), "--scale", "19"],
+                 ["synthesize", str(WAVES), "-o", str(out), "--scale", "1", "--w-l", "2"],
                  ["autocomplete", str(WAVES), "--exemplar", str(WAVES), "-o", str(out),
                   "--margin", "-1"],
                  ["autocomplete", str(WAVES), "--exemplar", str(tmp_path / "none.svg"), "-o",

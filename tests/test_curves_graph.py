@@ -107,3 +107,11 @@ def test_self_intersecting_path_gets_a_crossing():
     deg = g.degree()
     assert int((deg == 4).sum()) == 1 and int((deg == 1).sum()) == 0
     assert torch.allclose(g.pos[deg == 4][0], torch.tensor([50.0, 50.0]).double(), atol=0.5)
+
+
+def test_groups_with_transforms_are_strokes():
+    body = ('<g transform="translate(10,0)" stroke="#123456" stroke-width="3" fill="none">'
+            '<polyline points="0,10 40,10 40,50"/><line x1="0" y1="80" x2="60" y2="80"/></g>')
+    cx = curve_exemplar(parse_svg(_svg(body)))
+    assert len(cx.strokes) == 2 and [(s.color, s.width) for s in cx.styles] == [("#123456", 3)]
+    assert np.allclose(cx.strokes[0].points[0], [10, 10])  # the group's translate applied
