@@ -1,4 +1,5 @@
-"""The ``cvt`` command line: ``cvt synthesize`` and ``cvt inspect``."""
+"""The ``cvt`` command line: ``cvt synthesize``, ``cvt inspect`` (and ``cvt autocomplete``,
+cvt/cli_curves.py)."""
 
 from __future__ import annotations
 
@@ -8,6 +9,7 @@ import math
 import sys
 from pathlib import Path
 
+from cvt import cli_curves
 from cvt.baselines import METHODS
 from neuraltex import __version__
 from neuraltex.errors import InputError, cli_entry, dispatch
@@ -62,6 +64,7 @@ def build_parser() -> argparse.ArgumentParser:
     syn.add_argument("--preview", help="also render the result to this PNG")
     syn.add_argument("--debug-dir", help="write per-iteration sample pictures and energies here")
     syn.add_argument("--quiet", action="store_true", help="no progress bar")
+    cli_curves.add_curve_arguments(syn)
     syn.set_defaults(func=cmd_synthesize)
 
     ins = sub.add_parser("inspect", help="list an exemplar's elements and samples per level")
@@ -70,6 +73,7 @@ def build_parser() -> argparse.ArgumentParser:
     ins.add_argument("--no-png", action="store_true", help="do not write the PNG")
     ins.add_argument("--levels", type=int, default=3)
     ins.set_defaults(func=cmd_inspect)
+    cli_curves.add_autocomplete_command(sub)
     return parser
 
 
@@ -137,6 +141,8 @@ def cmd_synthesize(args) -> int:
     _check_args(args)
     image = _from_image(args) if args.from_image else None
     ex = image.exemplar if image else load_svg(args.exemplar, args.elements)  # bad input fails
+    if cli_curves.is_curves(args, ex):
+        return cli_curves.synthesize_curves(args, ex)
     if not ex.elements:
         raise InputError("the exemplar has only background content and no elements to arrange")
     size = _output_size(args, ex)

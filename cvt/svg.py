@@ -49,6 +49,7 @@ class Shape:
     filled: bool
     stroke_width: float  # 0 when not stroked
     evenodd: bool = False
+    stroke_color: str | None = None  # '#rrggbb' when stroked (curve styles, cvt.curves)
 
 
 def _box(shapes: list[Shape]) -> np.ndarray:
@@ -213,7 +214,8 @@ def _shapes_of(doc: bytes) -> list[Shape]:
             sw = float(getattr(e, "implicit_stroke_width", None) or e.stroke_width or 1.0)
             sw = sw if stroked else 0.0
             evenodd = e.values.get("fill-rule", "nonzero") == "evenodd"
-            shapes.append(Shape(rings, closed, filled, sw, evenodd))
+            color = e.stroke.hexrgb if stroked else None
+            shapes.append(Shape(rings, closed, filled, sw, evenodd, color))
     return shapes
 
 

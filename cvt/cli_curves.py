@@ -1,0 +1,171 @@
+"""``cvt`` command line for curve patterns: ``cvt synthesize --kind curves|auto`` and
+``cvt autocomplete`` (seed 001). Wired into cvt/cli.py by a few lines."""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+import time
+from pathlib import Path
+
+from neuraltex.errors import InputError
+from neuraltex.fileio import write_text_atomic
+
+KINDS = ("auto", "curves", "elements")
+CURVE_METHODS = {"full": "ours", "random": "random"}  # cvt --method -> cvt.curves method
+MAX_OUT_SAMPLES = 50_000
+
+
+def add_curve_arguments(syn: argparse.ArgumentParser) -> None:
+    """``--kind`` (and ``--domain`` unless the parser has it already) for ``cvt synthesize``."""
+    syn.add_argument("--kind", choices=KINDS, default="auto",
+                     help="curves: connected strokes (Continuous Curve Textures); elements: "
+                     "discrete elements (Clustered Vector Textures); auto (default): curves when "
+                     "unfilled strokes join, cross or run longer than a third of the exemplar")
+    try:
+        syn.add_argument("--domain", metavar="SHAPE.svg",
+                         help="fill only the inside of this SVG's filled shapes (curves)")
+    except argparse.ArgumentError:
+        pass  # another module already offers --domain
+
+
+def is_curves(args, exemplar) -> bool:
+    """Whether ``cvt synthesize`` should run the curve synthesis."""
+    from cvt.curves.strokes import looks_like_curves
+
+    kind = getattr(args, "kind", "auto")
+    if kind == "auto":
+        return getattr(args, "from_image", None) is None and looks_like_curves(exemplar)
+    return kind == "curves"
+
+
+def domain_inside(path):
+    """Predicate (N, 2) -> (N,) bool: inside any filled shape of the SVG at ``path``."""
+    import numpy as np
+    import torch
+
+    from cvt.sampling import _inside
+    from cvt.svg import load_svg
+
+    shapes = [s for e in load_svg(path).elements for s in e.shapes if s.filled]
+    if not shapes:
+        raise InputError(f"{path}: the domain SVG has no filled shape")
+
+    def inside(p: torch.Tensor) -> torch.Tensor:
+        pts = p.numpy()
+        ok = np.zeros(len(pts), dtype=bool)
+        for s in shapes:
+            ok |= _inside(pts, s)
+        return torch.from_numpy(ok)
+
+    return inside
+
+
+def synthesize_curves(args, exemplar) -> int:
+    """``cvt synthesize`` for a curve exemplar (already parsed, ``exemplar``)."""
+    from cvt.cli import _output_size, render_png
+    from cvt.curves.baselines import run_curves
+    from cvt.curves.reconstruction import curves_svg
+    from cvt.curves.sampling import exemplar_graph
+    from cvt.curves.strokes import curve_exemplar
+    from cvt.curves.synthesis import CurveConfig
+
+    if args.method not in CURVE_METHODS:
+        raise InputError(f"--method {args.method} is for element patterns; curve patterns "
+                         f"take {' or '.join(CURVE_METHODS)}")
+    element_only = {"--debug-dir": args.debug_dir, "--w-f": args.w_f, "--w-l": args.w_l,
+                    "--w-s": args.w_s, "--w-a": args.w_a,
+                    "--init": None if args.init == "patch" else args.init}
+    given = [k for k, v in element_only.items() if v is not None]
+    if given:
+        raise InputError(f"{', '.join(given)}: element-pattern options; this exemplar is "
+                         "synthesized as curves (use --kind elements for the element synthesis)")
+    cx = curve_exemplar(exemplar)
+    size = _output_size(args, exemplar)
+    cfg = CurveConfig(levels=args.levels, iterations=args.iterations, seed=args.seed,
+                      threads=args.threads)
+    fine = len(exemplar_graph(cx, cfg.level(exemplar.size, cfg.levels - 1).delta))
+    est = fine * size[0] * size[1] / (exemplar.viewbox[2] * exemplar.viewbox[3])
+    if est > MAX_OUT_SAMPLES:
+        raise InputError(f"output too large: about {est:,.0f} curve samples "
+                         f"(limit {MAX_OUT_SAMPLES:,})")
+    domain = getattr(args, "domain", None)
+    inside = domain_inside(domain) if isinstance(domain, str) else None
+    t = time.perf_counter()
+    g, _ = run_curves(CURVE_METHODS[args.method], cx, size, cfg, inside)
+    write_text_atomic(args.output, curves_svg(exemplar, cx.element_centers(), g, size))
+    if args.preview:
+        render_png(Path(args.output), Path(args.preview))
+    print(f"wrote {args.output}: curves, {len(g)} samples, {len(g.edges)} edges "
+          f"({time.perf_counter() - t:.1f} s)")
+    return 0
+
+
+def add_autocomplete_command(sub) -> None:
+    """Register ``cvt autocomplete``."""
+    ac = sub.add_parser("autocomplete", help="predict the strokes around a partial drawing "
+                        "from a curve exemplar (interactive-editor backend)")
+    ac.add_argument("partial", help="SVG of what has been drawn so far (its canvas = viewBox)")
+    ac.add_argument("--exemplar", required=True, help="curve exemplar SVG to imitate")
+    ac.add_argument("-o", "--output", required=True, help="output SVG on the partial's canvas")
+    ac.add_argument("--margin", type=float,
+                    help="predict this far around the drawing (default: a quarter of the "
+                    "exemplar size)")
+    ac.add_argument("--region", type=float, nargs=4, metavar=("X", "Y", "W", "H"),
+                    help="predict inside this rectangle instead")
+    ac.add_argument("--only-new", action="store_true",
+                    help="write only the predicted strokes, not the drawing")
+    ac.add_argument("--levels", type=int, default=2, help="hierarchy levels (1-3, default 2)")
+    ac.add_argument("--iterations", type=int, default=7, help="iterations per level")
+    ac.add_argument("--seed", type=int, default=0)
+    ac.add_argument("--preview", help="also render the result to this PNG")
+    ac.set_defaults(func=cmd_autocomplete)
+
+
+def _region(args, partial, cx):
+    from cvt.curves.autocomplete import region_around
+
+    if args.region is not None:
+        x, y, w, h = args.region
+        if not all(math.isfinite(v) for v in args.region) or w <= 0 or h <= 0:
+            raise InputError("--region needs finite X Y and positive W H")
+        return (x, y, x + w, y + h)
+    margin = cx.exemplar.size / 4 if args.margin is None else args.margin
+    if not (math.isfinite(margin) and margin > 0):
+        raise InputError("--margin must be a positive number")
+    return region_around(partial, margin)
+
+
+def cmd_autocomplete(args) -> int:
+    from dataclasses import replace
+
+    from cvt.cli import render_png
+    from cvt.curves.autocomplete import autocomplete
+    from cvt.curves.reconstruction import curves_svg
+    from cvt.curves.strokes import load_curves
+    from cvt.curves.synthesis import CurveConfig
+
+    if not 1 <= args.levels <= 3 or not 1 <= args.iterations <= 100:
+        raise InputError("--levels must be 1-3 and --iterations 1-100")
+    cx = load_curves(args.exemplar)
+    partial = load_curves(args.partial)
+    box = _region(args, partial, cx)
+    if (box[2] - box[0]) * (box[3] - box[1]) > 25 * cx.exemplar.viewbox[2] * cx.exemplar.viewbox[3]:
+        raise InputError("the region to complete is more than 25x the exemplar's area")
+    res = autocomplete(cx, partial, box, CurveConfig(levels=args.levels,
+                                                     iterations=args.iterations, seed=args.seed))
+    x, y, w, h = partial.exemplar.viewbox
+    canvas = replace(cx.exemplar, viewbox=(x, y, w, h), unit_scale=partial.exemplar.unit_scale)
+    text = curves_svg(canvas, cx.element_centers(), res.predicted(), (w, h))
+    if not args.only_new:  # the drawing itself, verbatim, under the prediction
+        drawing = "\n".join(e.markup for e in partial.exemplar.elements)
+        cut = text.index('<g id="curves">')
+        text = text[:cut] + drawing + "\n" + text[cut:]
+    write_text_atomic(args.output, text)
+    if args.preview:
+        render_png(Path(args.output), Path(args.preview))
+    n_new = len(res.graph) - res.n_fixed
+    print(f"wrote {args.output}: {n_new} predicted samples around {res.n_fixed} drawn "
+          f"({res.seconds:.2f} s)", file=sys.stdout)
+    return 0

@@ -1,0 +1,216 @@
+"""The curve synthesis loop (seed 001 sec. 4.3): init -> (search, assignment of positions,
+edges and existence) x iterations x levels -> paths.
+
+Search and position assignment are cvt's (``neighborhoods``, ``pair_space``, ``patchmatch``,
+``assign_positions``) with the curve attributes in the feature table (cvt.curves.similarity);
+edges and existence follow eqs. 16-22 (cvt.curves.edges, cvt.curves.existence). Each level
+after the first starts from the previous level's paths re-sampled at the finer spacing. The
+domain constraint (eqs. 13, 15) is a predicate ``inside``: samples that leave the domain are
+dropped and missing samples are only added inside it. A ``fixed`` graph (autocomplete: what the
+user drew) stays where it is, keeps its edges and is never removed; new edges may join it.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import torch
+
+from cvt.assignment import assign_positions
+from cvt.curves.edges import assign_edges
+from cvt.curves.existence import existence, missing_samples
+from cvt.curves.graph import CurveGraph, nearest_edges
+from cvt.curves.init import box_inside, patch_init
+from cvt.curves.reconstruction import trace_paths
+from cvt.curves.sampling import exemplar_graph, stroke_graph
+from cvt.curves.similarity import edge_embedding, feature_table
+from cvt.curves.strokes import CurveExemplar, Stroke
+from cvt.neighborhood import DistanceParams, neighborhoods, pair_space
+from cvt.sampling import Level
+from cvt.search import SearchParams, patchmatch
+from cvt.synthesis import _input_index
+
+Inside = Callable[[torch.Tensor], torch.Tensor]
+
+
+@dataclass(frozen=True)
+class CurveConfig:
+    levels: int = 3
+    iterations: int = 7
+    deltas: tuple[float, ...] = (1 / 18, 1 / 26, 1 / 36)  # sampling distance / exemplar size
+    radius: float = 4.0  # neighborhood radius in sampling distances
+    k_max: int = 16
+    in_margin: float = 1.5  # input neighborhoods reach this many deltas farther (cvt)
+    k_in_extra: int = 6
+    interior_margin: float = 0.5
+    c_out: float = 2.5  # cost of an unmatched output sample, in deltas
+    w_edge: float = 0.5  # eq. 5 weight (0 and connectivity=False: the no-connectivity baseline)
+    w_style: float = 1.0
+    connectivity: bool = True  # edge assignment (eqs. 17-22)
+    first_passes: int = 5
+    passes: int = 2
+    huber: float = 1.0
+    reach: float = 2.2  # candidate edges join samples closer than this many deltas
+    seed: int = 0
+    threads: int = 1
+
+    def level(self, size: float, k: int) -> Level:
+        d = self.deltas[len(self.deltas) - self.levels + k] * size
+        return Level(d, self.radius * d)
+
+
+@dataclass
+class CurveResult:
+    graph: CurveGraph
+    size: tuple[float, float]
+    delta: float  # finest sampling distance
+    inputs: list[CurveGraph] = field(default_factory=list)
+    samples_per_level: list[int] = field(default_factory=list)
+    energies: list[tuple[int, int, float]] = field(default_factory=list)
+    seconds: float = 0.0
+
+
+@dataclass
+class _Level:
+    """Everything one level's iterations share."""
+
+    lv: Level
+    inp: CurveGraph
+    in_emb: torch.Tensor
+    index: tuple  # in_nbr, valid, grid, window0 (cvt.synthesis._input_index)
+    inside: Inside
+    n_fixed: int
+    fixed_edges: torch.Tensor
+
+
+def synthesize_curves(cx: CurveExemplar, size: tuple[float, float],
+                      config: CurveConfig | None = None, inside: Inside | None = None,
+                      on_iteration: Callable[[int, int, CurveGraph, float], None] | None = None
+                      ) -> CurveResult:
+    """Synthesize a ``size`` = (width, height) curve pattern from ``cx`` (exemplar units)."""
+    cfg = config or CurveConfig()
+    threads = torch.get_num_threads()
+    torch.set_num_threads(cfg.threads)
+    x0, y0, _, _ = cx.box
+    try:
+        return run_boxed(cx, (x0, y0, x0 + size[0], y0 + size[1]), cfg, inside, None,
+                         on_iteration)
+    finally:
+        torch.set_num_threads(threads)
+
+
+def run_boxed(cx: CurveExemplar, out_box, cfg: CurveConfig, inside: Inside | None,
+              fixed: Callable[[float], CurveGraph] | None, on_iteration=None) -> CurveResult:
+    """The synthesis into ``out_box`` (x0, y0, x1, y1), around the graph ``fixed(delta)``
+    (sampled at each level's spacing; its styles index ``cx.styles``)."""
+    t0 = time.perf_counter()
+    gen = torch.Generator().manual_seed(cfg.seed)
+    size = (out_box[2] - out_box[0], out_box[3] - out_box[1])
+    domain = box_inside(out_box, inside)
+    levels = [cfg.level(cx.exemplar.size, k) for k in range(cfg.levels)]
+    res = CurveResult(CurveGraph.empty(cx.styles), size, levels[-1].delta)
+    res.inputs = [exemplar_graph(cx, lv.delta) for lv in levels]
+    out = patch_init(res.inputs[0], cx.box, out_box, 2 * levels[0].radius, domain, gen)
+    for li, lv in enumerate(levels):
+        held = fixed(lv.delta) if fixed is not None else None
+        out = _drop_near(out, held, lv.delta) if held is not None else out
+        state = _level_state(lv, res.inputs[li], cx, cfg, domain, held)
+        out = _run_level(li, state, out, cfg, gen, res, on_iteration)
+        res.samples_per_level.append(len(out))
+        if li + 1 < len(levels):
+            out = upsample(out, levels[li + 1].delta)
+    res.graph = out
+    res.seconds = time.perf_counter() - t0
+    return res
+
+
+def _level_state(lv, inp, cx, cfg, domain, fixed) -> _Level:
+    index = _input_index(inp, cx.box, lv, cfg)
+    n_fixed = 0 if fixed is None else len(fixed)
+    keep = torch.zeros(0, 2, dtype=torch.long) if fixed is None else fixed.edges
+    return _Level(lv, inp, edge_embedding(inp), index, domain, n_fixed, keep)
+
+
+def _drop_near(out: CurveGraph, fixed: CurveGraph, delta: float) -> CurveGraph:
+    """The fixed samples first, then the free ones not on top of them."""
+    free = out
+    if len(fixed) and len(free):
+        far = torch.cdist(free.pos, fixed.pos).min(1).values > 0.8 * delta
+        free = free.select(torch.nonzero(far).flatten())
+    return fixed.cat(free)
+
+
+def _run_level(li: int, s: _Level, out: CurveGraph, cfg: CurveConfig, gen, res: CurveResult,
+               on_iteration) -> CurveGraph:
+    in_nbr, valid, grid, window0 = s.index
+    rnd = valid[torch.randint(len(valid), (len(out),), generator=gen)]
+    field_ = torch.where(out.source >= 0, out.source, rnd)
+    for it in range(cfg.iterations):
+        if len(out) - s.n_fixed == 0:
+            break
+        passes = cfg.first_passes if it == 0 else cfg.passes
+        m = _search(out, s, cfg, field_, passes, gen)
+        out = _assign(out, m, s, cfg)
+        field_ = m.center
+        res.energies.append((li, it, m.energy))
+        if it + 1 < cfg.iterations:
+            out, field_ = _existence(out, m, s, field_)
+        else:  # the domain constraint also holds after the last move
+            keep = s.inside(out.pos)
+            keep[: s.n_fixed] = True
+            out = out.select(torch.nonzero(keep).flatten())
+        if on_iteration is not None:
+            on_iteration(li, it, out, m.energy)
+    return out
+
+
+def _search(out: CurveGraph, s: _Level, cfg: CurveConfig, field_, passes: int, gen):
+    """PatchMatch over curve neighborhoods (eqs. 7-12; cvt's batched distance)."""
+    in_nbr, _, grid, window0 = s.index
+    table = feature_table(out, s.inp, cfg.w_edge, cfg.w_style, in_emb=s.in_emb)
+    out_nbr = neighborhoods(out.pos, s.lv.radius, cfg.k_max)
+    # w_f = 2: cvt scales the table by w_f / 2, our table already carries its weights
+    sp = pair_space(out.pos, out_nbr, s.inp.pos, in_nbr, table,
+                    DistanceParams(s.lv.delta, 2.0, cfg.c_out))
+    return patchmatch(sp, grid, field_, SearchParams(passes=passes), window0, gen)
+
+
+def _assign(out: CurveGraph, m, s: _Level, cfg: CurveConfig) -> CurveGraph:
+    """Positions by least squares (eqs. 14-15), then edges (eqs. 17-22)."""
+    pos = assign_positions(out.pos, m, s.inp.pos, huber=cfg.huber * s.lv.delta)
+    pos[: s.n_fixed] = out.pos[: s.n_fixed]
+    out = out.with_(pos=pos, style=_voted_style(out, m, s))
+    if cfg.connectivity:
+        edges = assign_edges(m, out, s.inp, cfg.reach * s.lv.delta, keep=s.fixed_edges)
+    else:  # the no-connectivity baseline: samples only, joined to their nearest afterwards
+        edges = nearest_edges(out, 1.6 * s.lv.delta)
+    return out.with_(edges=edges)
+
+
+def _voted_style(out: CurveGraph, m, s: _Level) -> torch.Tensor:
+    """A free sample takes the stroke style of the input sample its neighborhood matched."""
+    style = s.inp.style[m.center].clone()
+    style[: s.n_fixed] = out.style[: s.n_fixed]
+    return torch.where(out.kind < 0, style, out.style)
+
+
+def _existence(out: CurveGraph, m, s: _Level, field_):
+    """Remove samples with eq. 16 below 1/2 or outside the domain; add missing ones."""
+    new = missing_samples(out, m, s.inp, s.index[0], s.lv.delta, s.lv.radius, s.inside)
+    keep = (existence(m, len(out)) >= 0.5) & s.inside(out.pos)
+    keep[: s.n_fixed] = True
+    idx = torch.nonzero(keep).flatten()
+    out, field_ = out.select(idx), field_[idx]
+    return out.cat(new), torch.cat([field_, new.source])
+
+
+def upsample(out: CurveGraph, delta: float) -> CurveGraph:
+    """The graph's paths re-sampled at ``delta`` (next level), discrete samples kept."""
+    curve = torch.nonzero(out.kind < 0).flatten()
+    g = out.select(curve)
+    pos = g.pos.numpy()
+    strokes = [Stroke(pos[p.nodes], p.closed, p.style) for p in trace_paths(g)]
+    new = stroke_graph(strokes, out.styles, delta) if strokes else CurveGraph.empty(out.styles)
+    return new.cat(out.select(torch.nonzero(out.kind >= 0).flatten()))

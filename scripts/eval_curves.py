@@ -1,0 +1,138 @@
+"""Curve synthesis benchmark: graph statistics, curvature / segment-length distributions and
+patch-SWD of every shipped curve exemplar against its syntheses by ours, the no-connectivity
+baseline and random placement of exemplar pieces (cvt.curves.baselines).
+
+    python scripts/eval_curves.py [--scale 1.5] [--out docs/curves_eval.md] [NAME ...]
+
+Outputs are read back from their SVG and sampled at the finest spacing, like the exemplar
+(cvt.curves.stats). Targets (issue 18): degree TV, end-density relative error and curvature TV
+<= 0.15, and better than no-connectivity, on >= 80 % of the exemplars.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+from pathlib import Path
+
+import numpy as np
+import torch
+
+from cvt.curves.baselines import METHODS, run_curves
+from cvt.curves.graph import CurveGraph
+from cvt.curves.reconstruction import curves_svg
+from cvt.curves.sampling import exemplar_graph
+from cvt.curves.stats import compare, graph_stats
+from cvt.curves.strokes import curve_exemplar, load_curves
+from cvt.curves.synthesis import CurveConfig
+from cvt.metrics import patch_swd
+from cvt.raster import render_svg
+from cvt.svg import parse_svg
+from neuraltex.errors import InputError
+
+ROOT = Path(__file__).resolve().parents[1]
+EXEMPLARS = ROOT / "cvt" / "exemplars" / "curves"
+KEYS = ("degree_tv", "ends_rel", "curvature_tv", "junctions_rel", "loops_rel", "segments_tv")
+TARGET = ("degree_tv", "ends_rel", "curvature_tv")
+
+
+def measure(svg: str, box, delta: float):
+    try:
+        g = exemplar_graph(curve_exemplar(parse_svg(svg.encode())), delta)
+    except InputError:  # nothing left to draw
+        g = CurveGraph.empty([])
+    return graph_stats(g, box, delta)
+
+
+def evaluate(name: str, scale: float, out_dir: Path | None, cfg: CurveConfig,
+             methods=METHODS) -> dict:
+    path = EXEMPLARS / f"{name}.svg"
+    cx = load_curves(path)
+    x, y, w, h = cx.exemplar.viewbox
+    size = (scale * w, scale * h)
+    seed = cfg.seed
+    delta = cfg.level(cx.exemplar.size, cfg.levels - 1).delta
+    ref = measure(path.read_text(), cx.box, delta)
+    ref_img = render_svg(path.read_text())
+    row = {"exemplar": name, "samples_in": ref.samples}
+    for method in methods:
+        t = time.perf_counter()
+        g, _ = run_curves(method, cx, size, cfg)
+        seconds = time.perf_counter() - t
+        svg = curves_svg(cx.exemplar, cx.element_centers(), g, size)
+        if out_dir is not None:
+            (out_dir / f"{name}.{method}.svg").write_text(svg)
+        st = measure(svg, (x, y, x + size[0], y + size[1]), delta)
+        row[method] = {**compare(st, ref), "swd": patch_swd(render_svg(svg), ref_img, seed),
+                       "seconds": seconds, "samples": len(g)}
+    return row
+
+
+def summary(rows: list[dict]) -> list[str]:
+    lines = ["", "| method | " + " | ".join(KEYS) + " | swd | s |", "|---" * (len(KEYS) + 3) + "|"]
+    for method in METHODS:
+        med = [np.median([r[method][k] for r in rows]) for k in (*KEYS, "swd", "seconds")]
+        lines.append(f"| {method} (median) | " + " | ".join(f"{v:.3f}" for v in med) + " |")
+    n = len(rows)
+    lines.append("")
+    for k in TARGET:
+        within = sum(r["ours"][k] <= 0.15 for r in rows)
+        better = sum(r["ours"][k] < r["no-connectivity"][k] for r in rows)
+        tied = sum(r["ours"][k] == r["no-connectivity"][k] for r in rows)
+        lines.append(f"- {k}: ours within 0.15 on {within}/{n}, better than no-connectivity on "
+                     f"{better}/{n} (tied on {tied})")
+    return lines
+
+
+def table(rows: list[dict]) -> list[str]:
+    head = "| exemplar | method | " + " | ".join(KEYS) + " | swd | samples | s |"
+    lines = [head, "|---" * (len(KEYS) + 5) + "|"]
+    for r in rows:
+        for method in METHODS:
+            v = r[method]
+            lines.append(f"| {r['exemplar']} | {method} | "
+                         + " | ".join(f"{v[k]:.3f}" for k in KEYS)
+                         + f" | {v['swd']:.1f} | {v['samples']} | {v['seconds']:.1f} |")
+    return lines
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("names", nargs="*", help="exemplar names (default: all shipped)")
+    ap.add_argument("--scale", type=float, default=1.5, help="output side / exemplar side")
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--out", type=Path, help="write the markdown table here (and .json)")
+    ap.add_argument("--svg-dir", type=Path, help="keep the output SVGs here")
+    ap.add_argument("--only", choices=METHODS, help="run one method (no summary table)")
+    ap.add_argument("--set", nargs="*", default=[], metavar="KEY=VALUE",
+                    help="CurveConfig overrides, e.g. --set iterations=10 c_out=3")
+    args = ap.parse_args()
+    over = {k: type(getattr(CurveConfig, k))(v) for k, v in (a.split("=") for a in args.set)}
+    cfg = CurveConfig(seed=args.seed, **over)
+    methods = (args.only,) if args.only else METHODS
+    torch.set_num_threads(1)
+    names = args.names or sorted(p.stem for p in EXEMPLARS.glob("*.svg"))
+    if args.svg_dir:
+        args.svg_dir.mkdir(parents=True, exist_ok=True)
+    rows = []
+    for name in names:
+        rows.append(evaluate(name, args.scale, args.svg_dir, cfg, methods))
+        print(" | ".join(f"{m}: " + " ".join(f"{rows[-1][m][k]:.2f}" for k in TARGET)
+                         + f" {rows[-1][m]['seconds']:.1f}s" for m in methods), "<-", name,
+              flush=True)
+    if args.only:
+        for k in TARGET:
+            print(k, "median", np.median([r[args.only][k] for r in rows]),
+                  "within 0.15:", sum(r[args.only][k] <= 0.15 for r in rows), "/", len(rows))
+        return
+    text = "\n".join(table(rows) + summary(rows)) + "\n"
+    print(text)
+    if args.out:
+        args.out.write_text(f"Curve synthesis benchmark (`python scripts/eval_curves.py "
+                            f"--scale {args.scale:g}`), seed {args.seed}.\n\n" + text)
+        args.out.with_suffix(".json").write_text(json.dumps(rows, indent=1))
+
+
+if __name__ == "__main__":
+    main()

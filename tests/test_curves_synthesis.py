@@ -1,0 +1,79 @@
+"""Curve synthesis end to end: structure, domain constraint, autocomplete, baselines."""
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+import torch
+
+from cvt.curves.autocomplete import autocomplete, region_around
+from cvt.curves.baselines import run_curves
+from cvt.curves.reconstruction import curves_svg
+from cvt.curves.sampling import exemplar_graph
+from cvt.curves.stats import compare, graph_stats
+from cvt.curves.strokes import curve_exemplar, load_curves
+from cvt.curves.synthesis import CurveConfig, synthesize_curves
+from cvt.svg import parse_svg
+
+EX = Path(__file__).resolve().parents[1] / "cvt" / "exemplars" / "curves"
+FAST = CurveConfig(levels=2, iterations=3)
+
+
+@pytest.fixture(scope="module")
+def waves():
+    return load_curves(EX / "waves.svg")
+
+
+def test_shipped_curve_exemplars_load():
+    names = sorted(p.stem for p in EX.glob("*.svg"))
+    assert len(names) >= 10
+    for n in names:
+        assert len(load_curves(EX / f"{n}.svg").strokes) > 0
+
+
+def test_synthesis_keeps_the_structure(waves):
+    res = synthesize_curves(waves, (200, 200), FAST)
+    g = res.graph
+    assert len(g) > 200 and len(g.edges) > 0.8 * len(g)
+    deg = torch.bincount(g.degree(), minlength=4)
+    assert deg[2] > 0.8 * len(g)  # waves are lines: almost all samples inside a line
+    assert int((g.degree() >= 3).sum()) < 0.02 * len(g)
+    svg = curves_svg(waves.exemplar, waves.element_centers(), g, res.size)
+    delta = res.delta
+    out = graph_stats(exemplar_graph(curve_exemplar(parse_svg(svg.encode())), delta),
+                      (0, 0, 200, 200), delta)
+    ref = graph_stats(res.inputs[-1], waves.box, delta)
+    assert compare(out, ref)["degree_tv"] < 0.1
+
+
+def test_domain_constraint_circle(waves):
+    def inside(p):
+        return (p - torch.tensor([150.0, 150.0]).double()).norm(dim=1) <= 100
+
+    res = synthesize_curves(waves, (300, 300), FAST, inside=inside)
+    r = (res.graph.pos - torch.tensor([150.0, 150.0]).double()).norm(dim=1)
+    assert len(res.graph) > 100 and float(r.max()) <= 100 + 1e-6
+    assert float(r.min()) < 30  # filled, not just the rim
+
+
+def test_autocomplete_keeps_the_drawing_and_continues_it(waves):
+    drawn = curve_exemplar(parse_svg(
+        b'<svg xmlns="http://www.w3.org/2000/svg" viewBox="0 0 200 200"><path d="M0 40 '
+        b'C 50 30, 80 50, 120 40" fill="none" stroke="#1d3557" stroke-width="2"/></svg>'))
+    box = region_around(drawn, 50)
+    res = autocomplete(waves, drawn, box, CurveConfig(levels=2, iterations=4))
+    fixed = res.graph.select(torch.arange(res.n_fixed))
+    assert res.n_fixed > 10 and len(res.graph) > res.n_fixed + 20
+    assert len(fixed.edges) == res.n_fixed - 1  # the drawn stroke is intact
+    assert np.allclose(fixed.pos[0].numpy(), [0, 40])
+    new = res.predicted()
+    x0, y0, x1, y1 = box
+    p = new.pos[len(new) - (len(res.graph) - res.n_fixed):]
+    assert bool(((p[:, 0] >= x0) & (p[:, 0] <= x1) & (p[:, 1] >= y0) & (p[:, 1] <= y1)).all())
+    assert res.seconds < 10
+
+
+def test_baselines_run(waves):
+    for method in ("no-connectivity", "random"):
+        g, delta = run_curves(method, waves, (200, 200), FAST)
+        assert len(g) > 100 and delta > 0
