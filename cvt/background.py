@@ -34,9 +34,11 @@ def covers(box: np.ndarray, viewbox) -> bool:
 
 
 def split_background(ex: Exemplar) -> Exemplar:
-    """``ex`` with its bottom run of canvas-covering elements moved to ``background``."""
+    """``ex`` with its bottom run of canvas-covering, filled elements moved to ``background``
+    (strokes alone, such as a drawing of curves, are content even when they span the canvas)."""
     n = 0
-    while n < len(ex.elements) and covers(ex.elements[n].bbox, ex.viewbox):
+    while (n < len(ex.elements) and covers(ex.elements[n].bbox, ex.viewbox)
+           and any(s.filled for s in ex.elements[n].shapes)):
         n += 1
     ground = _root_ground(ex)
     if n == 0 and ground is None:

@@ -32,7 +32,8 @@ def build_parser() -> argparse.ArgumentParser:
     syn.add_argument("-o", "--output", required=True, help="output SVG")
     img = syn.add_argument_group("from a raster image (vectorized into texton elements first)")
     img.add_argument("--from-image", metavar="IMAGE",
-                     help="vectorize IMAGE (neuraltex vectorize) and use it as the exemplar")
+                     help="vectorize IMAGE (neuraltex vectorize) and use it as the exemplar; a "
+                     "texture file (.ntex, neuraltex fit) gives its fitted segments")
     img.add_argument("--segmenter", default="model", choices=("model", "felzenszwalb"),
                      help="texton model (default) or the Felzenszwalb baseline")
     img.add_argument("--checkpoint", help="texton model .safetensors (default: the shipped one)")

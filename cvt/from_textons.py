@@ -27,18 +27,29 @@ class ImageExemplar:
 
 def vectorize_image(image_path, segmenter: str = "model", checkpoint=None, source: str = "masks",
                     max_side: int = 256, kinds: int = 4, device: str = "cpu") -> str:
-    """SVG text of a raster image (``neuraltex vectorize`` as a function)."""
+    """SVG text of a raster image, or of a texture file (.ntex: its fitted segments coloured by
+    its tuned reconstruction; ``checkpoint`` is then its base model) (``neuraltex vectorize``
+    as a function)."""
+    from pathlib import Path
+
     from neuraltex.imageio import load_image
-    from neuraltex.segments import segment_image
+    from neuraltex.segments import drop_background, from_texture, segment_image
     from neuraltex.vectorize import VectorizeParams, to_svg, vectorize
 
     model = None
-    if segmenter == "model":
-        from neuraltex.model import load_model
+    texture_file = Path(image_path).suffix.lower() == ".ntex"
+    if segmenter == "model" or texture_file:
+        from neuraltex.model import DEFAULT_MODEL, load_model
 
-        model = load_model(checkpoint, device=device)
-    image = load_image(image_path, max_side=max_side).to(device)
-    seg, _ = segment_image(image, segmenter, model, source)
+        model = load_model(checkpoint or DEFAULT_MODEL, device=device)
+    if texture_file:
+        from neuraltex.texture_file import load_texture
+
+        image, seg = from_texture(load_texture(image_path, model), model)
+        seg = drop_background(seg)
+    else:
+        image = load_image(image_path, max_side=max_side).to(device)
+        seg, _ = segment_image(image, segmenter, model, source)
     params = VectorizeParams(kinds=kinds)
     return to_svg(vectorize(image.permute(1, 2, 0).cpu().numpy(), seg, params), seg, params.seam)
 

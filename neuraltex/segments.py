@@ -113,6 +113,19 @@ def from_textons(textons: Textons, masks: torch.Tensor, size: tuple[int, int],
                     t.f[0].float().cpu().numpy(), keep.cpu().numpy())
 
 
+def from_texture(texture, model) -> tuple[torch.Tensor, Segments]:
+    """(image (3, H, W), segments) of a texture file (:class:`neuraltex.texture_file.Texture`)
+    tuned from ``model``: its fitted segments, coloured by its tuned reconstruction at the
+    size it was fitted at."""
+    from neuraltex.tuned_decoder import tuned_model
+
+    with torch.no_grad():
+        image = tuned_model(model, texture.generator).decode(texture.textons.to(
+            next(model.parameters()).device), texture.labels.shape)[0]
+    arr = image.permute(1, 2, 0).cpu().numpy().astype(np.float64)
+    return image, from_labels(texture.labels, arr)
+
+
 def _empty(H: int, W: int) -> tuple[np.ndarray, np.ndarray]:
     return np.full((H, W), -1, np.int64), np.zeros((H, W), np.float32)
 

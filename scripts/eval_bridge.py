@@ -1,13 +1,15 @@
 """Bridge benchmark: raster texture -> texton elements (SVG) -> 2x clustered vector synthesis.
 
-    python scripts/eval_bridge.py --checkpoint M.safetensors --limit 8 --real 3
-    python scripts/eval_bridge.py --checkpoint M.safetensors --limit 4 --synth --out docs/x.md
+    python scripts/eval_bridge.py --limit 8 --real 3               # the shipped model
+    python scripts/eval_bridge.py --limit 0 --real 25 --synth --out docs/bridge_real.md
     python scripts/eval_bridge.py --pipelines felzenszwalb --limit 8 --no-gradient
 
 Inputs: the first ``--limit`` procedural benchmark images (neuraltex.data.splits, families in
-turn; true texton masks known) and ``--real`` textures shipped with scikit-image (brick,
-gravel, grass, immunohistochemistry; loaded offline), all at ``--size`` px. Pipelines: the
-texton model (``model``) and the same vectorizer on Felzenszwalb segments (``felzenszwalb``).
+turn; true texton masks known) and the first ``--real`` photographed textures of
+data/real_textures (see its SOURCES.md), all at ``--size`` px. Pipelines: the texton model
+(``model``), the segments a texture file stores (``fit``: ``neuraltex fit --segmenter auto``),
+the same vectorizer on Felzenszwalb segments (``felzenszwalb``), and **vtracer** (a colour
+raster -> SVG tracer from PyPI, default settings) as an outside baseline.
 
 Vectorization: the SVG rasterized at the input size (resvg) vs the input: PSNR, SSIM; element
 count and SVG size; on procedural images also the true texton count and the matched IoU of the
@@ -39,7 +41,8 @@ from neuraltex.fileio import write_text_atomic  # noqa: E402
 from neuraltex.segments import segment_image  # noqa: E402
 from neuraltex.vectorize import VectorizeParams, to_svg, vectorize  # noqa: E402
 
-REAL = ("brick", "gravel", "grass", "immunohistochemistry")
+REAL = ROOT / "data" / "real_textures"
+PIPELINES = ("model", "fit", "felzenszwalb", "vtracer")
 VECTOR_COLS = ("psnr", "ssim", "elements", "gt", "miou", "kib", "t_vec")
 SYNTH_COLS = ("ex_swd", "swd", "out_elements", "energy", "t_syn")
 
@@ -54,15 +57,9 @@ def inputs(limit: int, real: int, size: int):
     for item in benchmark_split()[:limit]:
         s = generate_at(item, size)
         out.append((f"{item.family}-{item.index}", s.image.astype(np.float64), s.mask))
-    import skimage.data
-
-    for name in REAL[:real]:
-        im = getattr(skimage.data, name)()
-        pic = Image.fromarray(im).convert("RGB")
-        side = min(pic.size)  # centre square crop, then down to size
-        left, top = (pic.size[0] - side) // 2, (pic.size[1] - side) // 2
-        pic = pic.crop((left, top, left + side, top + side)).resize((size, size), Image.LANCZOS)
-        out.append((name, np.asarray(pic, np.float64) / 255, None))
+    for path in sorted(REAL.glob("*.png"))[:real]:
+        pic = Image.open(path).convert("RGB").resize((size, size), Image.LANCZOS)
+        out.append((path.stem, np.asarray(pic, np.float64) / 255, None))
     return out
 
 
@@ -95,11 +92,13 @@ def vector_row(image: np.ndarray, gt, pipeline: str, model, params: VectorizePar
     from neuraltex.metrics import matched_miou
 
     t = time.perf_counter()
-    x = torch.from_numpy(image).permute(2, 0, 1).float()
-    seg, _ = segment_image(x, pipeline, model, source)
-    vec = vectorize(image, seg, params)
-    svg = to_svg(vec, seg, params.seam)
-    row = {"t_vec": time.perf_counter() - t, "elements": len(vec.elements),
+    if pipeline == "vtracer":
+        svg, count = vtracer_svg(image)
+    else:
+        seg = segments(image, pipeline, model, source)
+        vec = vectorize(image, seg, params)
+        svg, count = to_svg(vec, seg, params.seam), len(vec.elements)
+    row = {"t_vec": time.perf_counter() - t, "elements": count,
            "kib": len(svg.encode()) / 1024}
     out = render_svg(svg).astype(np.float64)
     row["psnr"] = peak_signal_noise_ratio(image, out, data_range=1.0)
@@ -107,6 +106,31 @@ def vector_row(image: np.ndarray, gt, pipeline: str, model, params: VectorizePar
     row["gt"] = len(np.unique(gt[gt > 0])) if gt is not None else float("nan")
     row["miou"] = matched_miou(element_labels(svg, gt.shape), gt) if gt is not None else math.nan
     return row, svg
+
+
+def segments(image: np.ndarray, pipeline: str, model, source: str):
+    """The segments a pipeline vectorizes; ``fit``: the ones a texture file stores."""
+    x = torch.from_numpy(image).permute(2, 0, 1).float()
+    if pipeline != "fit":
+        return segment_image(x, pipeline, model, source)[0]
+    from neuraltex.fit import choose_segments
+    from neuraltex.segments import drop_background, from_labels
+
+    _, _, labels = choose_segments(model, x, "auto", 400)
+    return drop_background(from_labels(labels, image))
+
+
+def vtracer_svg(image: np.ndarray) -> tuple[str, int]:
+    """vtracer's colour tracing of an image (default settings) and its path count."""
+    import io
+
+    import vtracer
+    from PIL import Image
+
+    buf = io.BytesIO()
+    Image.fromarray((image * 255).round().astype(np.uint8)).save(buf, format="PNG")
+    svg = vtracer.convert_raw_image_to_svg(buf.getvalue(), img_format="png", colormode="color")
+    return svg, svg.count("<path")
 
 
 def synth_row(image: np.ndarray, svg: str, args) -> dict:
@@ -143,11 +167,11 @@ def _table(head, rows) -> str:
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--checkpoint", help="texton model .safetensors (needed for 'model')")
-    ap.add_argument("--pipelines", nargs="+", default=["model", "felzenszwalb"],
-                    choices=("model", "felzenszwalb"))
+    ap.add_argument("--checkpoint", help="texton model .safetensors (default: the shipped one)")
+    ap.add_argument("--pipelines", nargs="+", default=list(PIPELINES), choices=PIPELINES,
+                    help="what vectorizes (default: all)")
     ap.add_argument("--limit", type=int, default=8, help="procedural benchmark images")
-    ap.add_argument("--real", type=int, default=len(REAL), help=f"of {', '.join(REAL)}")
+    ap.add_argument("--real", type=int, default=25, help="real textures (data/real_textures)")
     ap.add_argument("--size", type=int, default=128)
     ap.add_argument("--source", choices=("masks", "splat"), default="masks")
     ap.add_argument("--no-gradient", action="store_true")
@@ -160,13 +184,9 @@ def main() -> None:
     ap.add_argument("--out", help="also write the tables to this Markdown file")
     args = ap.parse_args()
     torch.set_num_threads(1)
-    model = None
-    if "model" in args.pipelines:
-        if not args.checkpoint:
-            ap.error("pipeline 'model' needs --checkpoint")
-        from neuraltex.model import load_model
+    from neuraltex.model import DEFAULT_MODEL, load_model
 
-        model = load_model(args.checkpoint)
+    model = load_model(args.checkpoint or DEFAULT_MODEL)
     params = VectorizeParams(gradient=not args.no_gradient)
     cols = VECTOR_COLS + (SYNTH_COLS if args.synth else ())
     rows, results = [], []

@@ -99,3 +99,12 @@ def test_tampered_texture_file_is_refused_before_any_output(files, tmp_path, cap
     out = tmp_path / "o.png"
     assert main(["reconstruct", str(bad), "-o", str(out)]) == 2
     assert "checksum" in capsys.readouterr().err and not out.exists()
+
+
+def test_cvt_grows_a_texture_file(files, tmp_path):
+    from cvt.cli import main as cvt_main
+
+    out = tmp_path / "big.svg"
+    assert cvt_main(["synthesize", "--from-image", str(files / "a.ntex"), "-o", str(out),
+                     "--scale", "1.5", "--levels", "1", "--iterations", "1", "--quiet"]) == 0
+    assert out.read_text().count("<path") > 1

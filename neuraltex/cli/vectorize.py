@@ -52,13 +52,14 @@ def cmd_vectorize(args: argparse.Namespace) -> int:
 
 def _texture_segments(model, args: argparse.Namespace):
     """(image, segments, textons) of a texture file: its fitted segments, coloured by its
-    tuned reconstruction at the size it was fitted at."""
-    from neuraltex.segments import drop_background, from_labels
+    tuned reconstruction."""
+    from neuraltex.segments import drop_background, from_texture
+    from neuraltex.texture_file import load_texture
 
-    tex = common.textons_of(model, args.image, common.limits(args), args.device)
-    image = common.decode(tex.decoder, tex.textons, tex.labels.shape, args.device)[0]
-    seg = from_labels(tex.labels, image.permute(1, 2, 0).cpu().numpy().astype("float64"))
-    return image, (seg if args.keep_backdrop else drop_background(seg)), tex.textons
+    tex = load_texture(args.image, model)
+    image, seg = from_texture(tex, model)
+    return image, (seg if args.keep_backdrop else drop_background(seg)), tex.textons.to(
+        device=args.device)
 
 
 def add_commands(sub) -> None:
