@@ -105,18 +105,10 @@ def export_model(path: str | os.PathLike, state_dict: dict[str, torch.Tensor],
 
 def load_exported_model(path: str | os.PathLike) -> tuple[dict[str, torch.Tensor], dict, dict]:
     """Read an export; returns (state_dict, model_config, info). Verifies the content hash."""
-    from safetensors import SafetensorError, safe_open
-
     path = Path(path)
     if not path.is_file():
         raise CheckpointError(f"{path}: no such model file")
-    try:
-        with safe_open(str(path), framework="pt") as fh:
-            meta = fh.metadata() or {}
-            tensors = {k: fh.get_tensor(k) for k in fh.keys()}
-    except (SafetensorError, OSError, ValueError, RuntimeError) as exc:
-        raise CheckpointError(f"{path}: not a readable safetensors model "
-                              f"({' '.join(str(exc).split())[:160]})") from None
+    tensors, meta = read_safetensors(path, CheckpointError, "safetensors model")
     if meta.get("format") != EXPORT_FORMAT:
         raise CheckpointError(f"{path}: not a neuraltex model export")
     _check_version(int(meta["version"]) if meta.get("version", "").isdigit() else None, path)
@@ -124,6 +116,21 @@ def load_exported_model(path: str | os.PathLike) -> tuple[dict[str, torch.Tensor
         raise CheckpointError(f"{path}: weights do not match their recorded checksum "
                               "(file modified or corrupted)")
     return (tensors, *_header(meta, path))
+
+
+def read_safetensors(path: Path, error: type[Exception],
+                     what: str) -> tuple[dict[str, torch.Tensor], dict[str, str]]:
+    """(tensors, metadata) of a safetensors file; a file it cannot read raises ``error`` with
+    a one-line message naming ``what`` it should have been."""
+    from safetensors import SafetensorError, safe_open
+
+    try:
+        with safe_open(str(path), framework="pt") as fh:
+            meta = fh.metadata() or {}
+            return {k: fh.get_tensor(k) for k in fh.keys()}, meta
+    except (SafetensorError, OSError, ValueError, RuntimeError) as exc:
+        raise error(f"{path}: not a readable {what} "
+                    f"({' '.join(str(exc).split())[:160]})") from None
 
 
 def export_header(path: str | os.PathLike) -> tuple[dict, dict]:

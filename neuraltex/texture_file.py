@@ -24,7 +24,7 @@ import numpy as np
 import torch
 from torch import Tensor
 
-from neuraltex.checkpoint import tensor_digest
+from neuraltex.checkpoint import read_safetensors, tensor_digest
 from neuraltex.errors import InputError
 from neuraltex.fileio import atomic_path
 from neuraltex.textons import Textons
@@ -100,20 +100,12 @@ def load_texture(path: str | os.PathLike, model) -> Texture:
 
 
 def _read(path: Path) -> tuple[dict[str, Tensor], str]:
-    from safetensors import SafetensorError, safe_open
-
     if not path.is_file():
         raise TextureFileError(f"{path}: no such texture file")
     if path.stat().st_size > MAX_FILE_BYTES:
         raise TextureFileError(f"{path}: larger than {MAX_FILE_BYTES >> 20} MB; not a texture "
                                "file")
-    try:
-        with safe_open(str(path), framework="pt") as fh:
-            meta = fh.metadata() or {}
-            tensors = {k: fh.get_tensor(k) for k in fh.keys()}
-    except (SafetensorError, OSError, ValueError, RuntimeError) as exc:
-        raise TextureFileError(f"{path}: not a readable texture file "
-                               f"({' '.join(str(exc).split())[:160]})") from None
+    tensors, meta = read_safetensors(path, TextureFileError, "texture file")
     text = meta.get("header", "")
     if meta.get("sha256") != _digest(tensors, text):
         raise TextureFileError(f"{path}: content does not match its checksum (file modified "
