@@ -7,6 +7,7 @@ import argparse
 import hashlib
 from pathlib import Path
 
+from neuraltex.cli import args as types
 from neuraltex.cli import common
 from neuraltex.errors import InputError
 
@@ -24,6 +25,7 @@ def cmd_fit(args: argparse.Namespace) -> int:
     from neuraltex.texture_file import SUFFIX, save_texture
 
     _check(args)
+    torch.set_num_threads(args.threads)
     if args.output.suffix.lower() != SUFFIX:
         raise InputError(f"{args.output}: a texture file must end in {SUFFIX}")
     if args.preview:
@@ -67,6 +69,8 @@ def _check(args: argparse.Namespace) -> None:
         raise InputError(f"--steps must lie in 1..1000000, got {args.steps}")
     if not 16 <= args.size <= MAX_FIT_SIDE:
         raise InputError(f"--size must lie in 16..{MAX_FIT_SIDE}, got {args.size}")
+    if not 1 <= args.threads <= 256:
+        raise InputError(f"--threads must lie in 1..256, got {args.threads}")
     if not 2 <= args.max_textons <= 4096:
         raise InputError(f"--max-textons must lie in 2..4096, got {args.max_textons}")
 
@@ -111,8 +115,13 @@ def add_commands(sub) -> None:
     p.add_argument("--preview", type=Path,
                    help="also write input | tuned reconstruction side by side (.png/.jpg/.webp)")
     p.add_argument("--checkpoint", help="base model .safetensors (default: the shipped model)")
-    p.add_argument("--device", default="cpu", help="torch device (default: cpu)")
-    p.add_argument("--seed", type=int, help="random seed (default 0)")
+    p.add_argument("--device", default="cpu", type=types.device,
+                   help="torch device (default: cpu)")
+    p.add_argument("--threads", type=int, default=1,
+                   help="torch CPU threads (default 1: the tiny decoder's convolutions gain "
+                   "nothing from more, and a busy machine makes them much slower)")
+    p.add_argument("--seed", type=types.seed, help=f"random seed in [0, {types.SEED_MAX}] "
+                   "(default 0)")
     p.add_argument("--max-side", type=int, default=2048,
                    help="larger inputs are downscaled to this side on reading (default 2048)")
     p.set_defaults(func=cmd_fit)
