@@ -7,7 +7,9 @@ element, and the decoder paints a large blob. So textons are grouped first:
 
 - the **background layer**: effective textons whose Gaussian covers at least ``background``
   of the canvas (area of a uniform region with covariance U: 4 pi sqrt(det U));
-- **kinds**: k-means over (log area, f) of the other effective textons.
+- **kinds**: k-means over (log area, f) of the other effective textons, each kind split into
+  bins of area (a factor of ``size_ratio``), so a texton never takes the feature of one four
+  times larger or smaller.
 
 A texton of kind -1 never trades its feature.
 """
@@ -31,7 +33,7 @@ def texton_area(textons: Textons) -> Tensor:
 
 
 def texton_kinds(textons: Textons, *, max_kinds: int = 6, background: float = BACKGROUND_SHARE,
-                 seed: int = 0) -> Tensor:
+                 size_ratio: float = 4.0, seed: int = 0) -> Tensor:
     """(B, K) int64: kind >= 0 of each effective texton, -1 for the background layer and for
     textons that do not exist (delta <= 0.5)."""
     from scipy.cluster.vq import kmeans2
@@ -53,5 +55,9 @@ def texton_kinds(textons: Textons, *, max_kinds: int = 6, background: float = BA
             labels = np.zeros(n, np.int64)
         else:
             _, labels = kmeans2(feats, k, minit="++", seed=seed)
+        # and never across a factor of ``size_ratio`` in area: a kind is split into size bins
+        bins = np.floor(log_area / math.log(size_ratio)).astype(np.int64)
+        labels = np.unique(np.stack([labels, bins - bins.min()], 1), axis=0,
+                           return_inverse=True)[1].reshape(-1)
         kinds[b, idx] = torch.from_numpy(np.asarray(labels, np.int64))
     return kinds.to(textons.device)
