@@ -30,6 +30,7 @@ import torch.nn.functional as F
 from torch import Tensor, nn
 
 from neuraltex.estimation import estimate_textons, painter_order
+from neuraltex.nn_utils import resize
 from neuraltex.segmenters import MAX_SEGMENTS, METHODS, segment_labels, soft_masks
 from neuraltex.splatting import splat
 from neuraltex.textons import Textons
@@ -120,8 +121,7 @@ def _estimate(model, image: Tensor, labels: np.ndarray) -> Textons:
     masks = soft_masks(labels).to(image.device)  # (1, K, H, W)
     with torch.no_grad():
         appearance, direction = model.encoder(image[None] * 2 - 1)
-        appearance = F.interpolate(appearance, size=(H, W), mode="bilinear", align_corners=False)
-        direction = F.interpolate(direction, size=(H, W), mode="bilinear", align_corners=False)
+        appearance, direction = resize(appearance, (H, W)), resize(direction, (H, W))
         return estimate_textons(masks, appearance, direction, existence="all", eps=model.config.eps)
 
 
@@ -132,24 +132,18 @@ def ground_labels(labels: np.ndarray, image: Tensor, share: float = 0.05, fill: 
     ground between spots: sprawling, not element-shaped) and whose mean colour is within
     ``colour`` (RGB distance) of the largest such segment's; the other labels follow from 1.
     Shape (H, W) -> (H, W), and whether there was ground (else the labels are unchanged)."""
-    lab = torch.from_numpy(np.ascontiguousarray(labels)).long()
-    K = int(lab.max()) + 1
     H, W = image.shape[-2:]
     ys, xs = torch.meshgrid(torch.arange(H, dtype=torch.float64),
                             torch.arange(W, dtype=torch.float64), indexing="ij")
-    flat = lab.flatten()
-    n = torch.bincount(flat, minlength=K).double().clamp_min(1)
-
-    def mean(q: Tensor) -> Tensor:
-        return torch.zeros(K, dtype=torch.float64).index_add_(0, flat, q.flatten()) / n
-
-    mx, my = mean(xs), mean(ys)
-    vxx, vyy = mean(xs * xs) - mx ** 2, mean(ys * ys) - my ** 2
-    vxy = mean(xs * ys) - mx * my
-    spread = 4 * math.pi * (vxx * vyy - vxy ** 2).clamp_min(0).sqrt()  # pixels
+    maps = torch.stack([xs, ys, xs * xs, ys * ys, xs * ys, *image.cpu().double()])  # (8, H, W)
+    mx, my, mxx, myy, mxy, *rgb = segment_means(maps, labels)[0].T  # (K,) each
+    lab = torch.from_numpy(np.ascontiguousarray(labels)).long()
+    n = torch.bincount(lab.flatten(), minlength=len(mx)).double()
+    cov_det = (mxx - mx ** 2) * (myy - my ** 2) - (mxy - mx * my) ** 2
+    spread = 4 * math.pi * cov_det.clamp_min(0).sqrt()  # pixels
     ground = (spread >= share * H * W) & (n < fill * spread)
     if ground.any():
-        rgb = torch.stack([mean(c.double()) for c in image.cpu()], 1)  # (K, 3)
+        rgb = torch.stack(rgb, 1)  # (K, 3)
         largest = int(torch.where(ground, n, torch.zeros_like(n)).argmax())
         ground &= (rgb - rgb[largest]).norm(dim=1) < colour
     if not ground.any():

@@ -20,6 +20,7 @@ from torch import Tensor, nn
 from neuraltex.coords import default_window
 from neuraltex.estimation import Existence, estimate_textons
 from neuraltex.model_config import ModelConfig
+from neuraltex.nn_utils import shrink_short_side
 from neuraltex.splatting import Splat, splat
 from neuraltex.textons import Textons
 
@@ -73,11 +74,8 @@ class TextonAutoencoder(nn.Module):
         changes. The trainer passes ``native=False`` (its crops are already at that scale).
         """
         window = default_window(*image.shape[-2:])  # the input's canvas, kept when resized
-        if native and self.native_size and min(image.shape[-2:]) > self.native_size:
-            s = self.native_size / min(image.shape[-2:])
-            hw = tuple(max(1, round(d * s)) for d in image.shape[-2:])
-            image = F.interpolate(image, size=hw, mode="bilinear", align_corners=False,
-                                  antialias=True)
+        if native and self.native_size:
+            image = shrink_short_side(image, self.native_size)
         appearance, direction = self.encoder(image * 2 - 1)
         masks = self.segment(image)
         size = tuple(masks.shape[-2:])

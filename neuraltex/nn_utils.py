@@ -29,6 +29,16 @@ def resize(x: torch.Tensor, size: tuple[int, int]) -> torch.Tensor:
     return F.interpolate(x, size=size, mode="bilinear", align_corners=False, antialias=shrink)
 
 
+def shrink_short_side(x: torch.Tensor, short: int) -> torch.Tensor:
+    """(B, C, H, W) downscaled (antialiased, never enlarged) so its short side is at most
+    ``short``; the aspect ratio is kept."""
+    H, W = x.shape[-2:]
+    if min(H, W) <= short:
+        return x
+    s = short / min(H, W)
+    return resize(x, (max(1, round(H * s)), max(1, round(W * s))))
+
+
 def count_parameters(module: nn.Module, trainable_only: bool = True) -> int:
     """Number of (trainable) scalar parameters of ``module``."""
     return sum(p.numel() for p in module.parameters() if p.requires_grad or not trainable_only)

@@ -22,6 +22,7 @@ def cmd_fit(args: argparse.Namespace) -> int:
 
     from neuraltex.fit import SEGMENTERS, FitSettings, fit_texture
     from neuraltex.imageio import check_output_path, load_image
+    from neuraltex.nn_utils import shrink_short_side
     from neuraltex.texture_file import SUFFIX, save_texture
 
     _check(args)
@@ -35,7 +36,7 @@ def cmd_fit(args: argparse.Namespace) -> int:
     model = common.load(args.checkpoint, args.device, args.seed)
     image = load_image(args.image, max_side=args.max_side)
     h, w = image.shape[-2:]
-    image = _at_short_side(image, args.size).to(args.device)
+    image = shrink_short_side(image[None], args.size)[0].clamp(0, 1).to(args.device)
     seconds = DEFAULT_SECONDS if args.seconds is None and args.steps is None else args.seconds
     settings = FitSettings(segmenter=args.segmenter, seconds=seconds, steps=args.steps,
                            max_textons=args.max_textons, seed=args.seed or 0)
@@ -73,19 +74,6 @@ def _check(args: argparse.Namespace) -> None:
         raise InputError(f"--threads must lie in 1..256, got {args.threads}")
     if not 2 <= args.max_textons <= 4096:
         raise InputError(f"--max-textons must lie in 2..4096, got {args.max_textons}")
-
-
-def _at_short_side(image, short: int):
-    """Downscale (never upscale) an image (3, H, W) so its short side is at most ``short``."""
-    import torch.nn.functional as F
-
-    H, W = image.shape[-2:]
-    if min(H, W) <= short:
-        return image
-    s = short / min(H, W)
-    size = (max(1, round(H * s)), max(1, round(W * s)))
-    return F.interpolate(image[None], size=size, mode="bilinear", antialias=True,
-                         align_corners=False)[0].clamp(0, 1)
 
 
 def add_commands(sub) -> None:
