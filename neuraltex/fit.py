@@ -10,7 +10,9 @@ inversion). Here:
 3. the textons' appearance features f (unit vectors, eq. 4.6) and the SPADE generator G are
    optimized together for L1 + L2 reconstruction of random crops of the image, rendered through
    the splatting h (eqs. 4.11-4.14) in a random dihedral pose (flips, transpose), so G learns to
-   render textons, not one fixed picture.
+   render textons, not one fixed picture;
+4. what G still misses is fitted, by least squares, as a small RGB sprite per texton in its
+   own frame (:mod:`neuraltex.texton_detail`): appearance that moves with the texton.
 
 E_FC and E_s stay frozen, so features of every tuned texture live in the base model's feature
 space (transfer and interpolation between texture files stay meaningful), and a texture is
@@ -33,6 +35,7 @@ from neuraltex.estimation import estimate_textons, painter_order
 from neuraltex.nn_utils import resize
 from neuraltex.segmenters import MAX_SEGMENTS, METHODS, segment_labels, soft_masks
 from neuraltex.splatting import splat
+from neuraltex.texton_detail import SPRITE, DetailSampler, attach
 from neuraltex.textons import Textons
 from neuraltex.tuned_decoder import ColourOffsetGenerator
 
@@ -53,6 +56,7 @@ class FitSettings:
     ground: bool = False          # merge the ground between elements into one background
     #                               layer (looks cleaner on spots, costs PSNR on grout)
     eval_every: int = 25          # steps between full-image PSNR readings
+    detail: int = SPRITE          # side of each texton's detail sprite (0: none)
     seed: int = 0
 
 
@@ -66,6 +70,8 @@ class TextureFit:
     seconds: float
     psnr: float             # of the final full-size reconstruction, dB
     base_psnr: float        # before tuning (the textons' colours already set), dB
+    plain_psnr: float       # after tuning G, before the detail sprites, dB
+    detail_seconds: float   # fitting the sprites
 
 
 def psnr(x: Tensor, y: Tensor) -> float:
@@ -180,13 +186,6 @@ def dihedral(image: Tensor, textons: Textons, code: int) -> tuple[Tensor, Texton
     return image, textons
 
 
-def decode_with(model, generator: nn.Module, textons: Textons, size: tuple[int, int],
-                window=None) -> Tensor:
-    """h then G: textons -> image (B, 3, H, W) in [0, 1], with a given generator."""
-    s = splat(textons, size, window=window, cutoff=model.cutoff)
-    return (generator(s.features, s.max_opacity) + 1) / 2
-
-
 def fit_texture(model, image: Tensor, settings: FitSettings | None = None,
                 bar: bool | None = None) -> TextureFit:
     """Tune G and the textons' features to an image (3, H, W) in [0, 1]; returns the fit.
@@ -203,7 +202,7 @@ def fit_texture(model, image: Tensor, settings: FitSettings | None = None,
                                               cfg.ground)
     H, W = image.shape[-2:]
     with torch.no_grad():
-        first = decode_with(model, model.generator, textons, (H, W))[0]  # (3, H, W)
+        first = model.decode(textons, (H, W))[0]  # (3, H, W)
     offsets = segment_means(image - first, labels)  # (1, K, 3): start at the segment colours
     rng = torch.Generator().manual_seed(cfg.seed)
     G = ColourOffsetGenerator(copy.deepcopy(model.generator)).eval()  # eval: keep BN stats
@@ -235,9 +234,24 @@ def fit_texture(model, image: Tensor, settings: FitSettings | None = None,
     seconds = time.perf_counter() - start
     progress.close()
     fitted = current().detach()
-    score = _full_psnr(model, G, image, fitted)
+    plain = score = _full_psnr(model, G, image, fitted)
+    start = time.perf_counter()
+    if cfg.detail:
+        fitted = fit_detail(model, G, image, fitted, cfg.detail)
+        score = _full_psnr(model, G, image, fitted)
     tuned = {k: v.detach().clone() for k, v in G.generator.named_parameters()}
-    return TextureFit(fitted, labels, tuned, method, step, seconds, score, base)
+    return TextureFit(fitted, labels, tuned, method, step, seconds, score, base, plain,
+                      time.perf_counter() - start)
+
+
+def fit_detail(model, G: nn.Module, image: Tensor, textons: Textons, side: int) -> Textons:
+    """The textons with detail sprites (``side`` texels) fitted to what G's decode misses:
+    f -> [f, vec(D)] (:mod:`neuraltex.texton_detail`)."""
+    H, W = image.shape[-2:]
+    with torch.no_grad():
+        residual = image - model.decode(textons, (H, W), generator=G)[0]  # (3, H, W)
+    sampler = DetailSampler(textons, (H, W), cutoff=model.cutoff)
+    return attach(textons, sampler.fit(residual[None], side).detach())
 
 
 def _done(cfg: FitSettings, step: int, elapsed: float) -> bool:
@@ -267,11 +281,11 @@ def _crop_loss(model, G: nn.Module, image: Tensor, textons: Textons, cfg: FitSet
     x0 = int(torch.randint(W - cw + 1, (1,), generator=rng))
     s = min(H, W)  # coords: short side = 1
     window = (x0 / s, y0 / s, (x0 + cw) / s, (y0 + ch) / s)
-    out = decode_with(model, G, t, (ch, cw), window=window)[0]  # (3, ch, cw)
+    out = model.decode(t, (ch, cw), window=window, generator=G)[0]  # (3, ch, cw)
     target = img[:, y0:y0 + ch, x0:x0 + cw]
     return F.l1_loss(out, target) + F.mse_loss(out, target)
 
 
 def _full_psnr(model, G: nn.Module, image: Tensor, textons: Textons) -> float:
     with torch.no_grad():
-        return psnr(decode_with(model, G, textons, tuple(image.shape[-2:]))[0], image)
+        return psnr(model.decode(textons, tuple(image.shape[-2:]), generator=G)[0], image)

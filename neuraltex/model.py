@@ -1,7 +1,7 @@
 """The Gaussian-texton autoencoder: image -> textons -> image (seed 003, 4.3.1-4.3.4).
 
     encode:  E_FC(I) -> F_a, V;  E_s(I) -> S;  E_g(S, F_a, V) -> textons
-    decode:  h(textons, size) -> F_s, F_max;  G(F_s, F_max) -> image
+    decode:  h(textons, size) -> F_s, F_max;  G(F_s, F_max) -> image  (+ texton detail)
 
 The networks are injected (:func:`build_model` builds them from a :class:`ModelConfig`); this
 module only wires them, and the config holds the estimation/splatting settings. Images are
@@ -17,11 +17,12 @@ import torch
 import torch.nn.functional as F
 from torch import Tensor, nn
 
-from neuraltex.coords import default_window
+from neuraltex.coords import Window, default_window
 from neuraltex.estimation import Existence, estimate_textons
 from neuraltex.model_config import ModelConfig
 from neuraltex.nn_utils import shrink_short_side
 from neuraltex.splatting import Splat, splat
+from neuraltex.texton_detail import DetailSampler, split
 from neuraltex.textons import Textons
 
 
@@ -99,10 +100,19 @@ class TextonAutoencoder(nn.Module):
     def render(self, textons: Textons, size: tuple[int, int]) -> Splat:
         return splat(textons, size, cutoff=self.cutoff)
 
-    def decode(self, textons: Textons, size: tuple[int, int]) -> Tensor:
-        """Textons -> image (B, 3, H, W) in [0, 1] at ``size`` = (H, W)."""
-        s = self.render(textons, size)
-        return (self.generator(s.features, s.max_opacity) + 1) / 2  # G ends in tanh
+    def decode(self, textons: Textons, size: tuple[int, int], *, window: Window | None = None,
+               generator: nn.Module | None = None) -> Tensor:
+        """Textons -> image (B, 3, H, W) in [0, 1] at ``size`` = (H, W) over ``window`` (the
+        canvas by default), with ``generator`` (default: the model's G). Features beyond what
+        G takes are texton sprites (:mod:`neuraltex.texton_detail`), added as detail."""
+        G = self.generator if generator is None else generator
+        plain, sprites = split(textons, G.feature_channels - 2)
+        s = splat(plain, size, window=window, cutoff=self.cutoff)
+        image = (G(s.features, s.max_opacity) + 1) / 2  # G ends in tanh
+        if sprites is None:
+            return image
+        detail = DetailSampler(plain, size, window, self.cutoff).render(sprites)
+        return (image + detail).clamp(0, 1)
 
     def reconstruct(self, image: Tensor) -> Tensor:
         return self.decode(self.encode(image).textons, tuple(image.shape[-2:]))

@@ -53,6 +53,73 @@ def splat(textons: Textons, size: tuple[int, int], *, window: Window | None = No
     """
     mu, prec, delta, feats, (H, W), window = _prepare(textons, size, window)
     B, K, C = feats.shape
+    tiles = _tiles(mu, prec, H, W, window, cutoff)
+    delta_t = tiles.gather(delta) * tiles.valid
+    chunk = max(1, _CHUNK_ELEMENTS // max(1, tiles.idx.shape[-1] * tiles.side ** 2))
+    out, fmax = _SplatFunction.apply(tiles.gather(mu), tiles.gather(prec), delta_t,
+                                     tiles.gather(feats), tiles.grid, cutoff, chunk)
+    return Splat(tiles.untile(out, H, W), tiles.untile(fmax.unsqueeze(1), H, W))
+
+
+def top_weights(textons: Textons, size: tuple[int, int], k: int = 4, *,
+                window: Window | None = None, cutoff: float | None = None
+                ) -> tuple[Tensor, Tensor]:
+    """The ``k`` largest composited weights a_i(p) (eq. 4.13) at every pixel, and which
+    textons give them (in the textons' own index order): (B, k, H, W) float, (B, k, H, W)
+    int64. Pixels reached by fewer than k textons get weight 0 (index 0) in the rest. Tiled
+    like :func:`splat`, so memory stays O(B*K*chunk); no gradients."""
+    with torch.no_grad():
+        mu, prec, delta, _, (H, W), window = _prepare(textons, size, window)
+        tiles = _tiles(mu, prec, H, W, window, cutoff)
+        mu_t, prec_t = tiles.gather(mu), tiles.gather(prec)
+        delta_t = tiles.gather(delta) * tiles.valid
+        N, Kt = delta_t.shape
+        chunk = max(1, _CHUNK_ELEMENTS // max(1, Kt * tiles.side ** 2))
+        P = tiles.grid.shape[1]
+        weights = mu.new_zeros(N, k, P)
+        index = torch.zeros(N, k, P, dtype=torch.int64, device=mu.device)
+        for s in range(0, N, chunk):
+            e = s + chunk
+            o = _opacity(mu_t[s:e], prec_t[s:e], delta_t[s:e], tiles.grid[s:e], cutoff)
+            a = o * _transmittance(o)                                    # (n, Kt, P)
+            w, i = a.topk(min(k, Kt), dim=1)
+            weights[s:e, :w.shape[1]] = w
+            index[s:e, :w.shape[1]] = torch.gather(tiles.idx.reshape(N, Kt)[s:e], 1,
+                                                   i.flatten(1)).reshape(i.shape)
+        order = _front_to_back(textons)                                  # sorted -> own
+        index = torch.gather(order, 1, index.reshape(order.shape[0], -1)).reshape(index.shape)
+        return (tiles.untile(weights, H, W), tiles.untile(index, H, W))
+
+
+class _Tiles(NamedTuple):
+    """Square tiles of an image and the textons that reach each (front-most first)."""
+    grid: Tensor   # (B*T, P, 2) pixel centres of each tile
+    idx: Tensor    # (B, T, Kt) texton indices (into the sorted set) per tile
+    valid: Tensor  # (B*T, Kt) float: 1 where idx is a real entry
+    side: int
+    ty: int
+    tx: int
+
+    def gather(self, x: Tensor) -> Tensor:
+        """(B, K, ...) per-texton values -> (B*T, Kt, ...) per tile."""
+        B, T, Kt = self.idx.shape
+        flat = self.idx.reshape(B, T * Kt)
+        i = flat.reshape(B, T * Kt, *([1] * (x.dim() - 2))).expand(B, T * Kt, *x.shape[2:])
+        return torch.gather(x, 1, i).reshape(B * T, Kt, *x.shape[2:])
+
+    def untile(self, x: Tensor, H: int, W: int) -> Tensor:
+        """(B*T, C, P) per-tile values -> (B, C, H, W) image, cropping the overhang."""
+        B, s = self.idx.shape[0], self.side
+        x = x.reshape(B, self.ty, self.tx, x.shape[1], s, s)
+        img = x.permute(0, 3, 1, 4, 2, 5).reshape(B, x.shape[3], self.ty * s, self.tx * s)
+        return img[:, :, :H, :W]
+
+
+def _tiles(mu: Tensor, prec: Tensor, H: int, W: int, window: Window,
+           cutoff: float | None) -> _Tiles:
+    """Cut an H x W image (in ``window``) into at most _MAX_TILES square tiles and list the
+    textons (M^2 <= cutoff^2, or 30) that reach each."""
+    B = mu.shape[0]
     side = max(16, math.ceil(math.sqrt(H * W / _MAX_TILES)))
     ty, tx = math.ceil(H / side), math.ceil(W / side)
     px, py = (window[2] - window[0]) / W, (window[3] - window[1]) / H
@@ -61,24 +128,11 @@ def splat(textons: Textons, size: tuple[int, int], *, window: Window | None = No
     grid = pixel_grid(ty * side, tx * side, tile_window, device=mu.device, dtype=mu.dtype)
     grid = grid.reshape(ty, side, tx, side, 2).permute(0, 2, 1, 3, 4)  # (ty, tx, s, s, 2)
     grid = grid.reshape(ty * tx, side * side, 2)                         # (T, P, 2)
-
     r2 = _SKIP_M2 if cutoff is None else min(cutoff * cutoff, _SKIP_M2)
     idx, valid = _tile_lists(mu, prec, grid, r2)                          # (B, T, Kt)
     T, Kt = idx.shape[1], idx.shape[2]
-    flat = idx.reshape(B, T * Kt)
-
-    def gather(x: Tensor) -> Tensor:  # (B, K, ...) -> (B*T, Kt, ...)
-        i = flat.reshape(B, T * Kt, *([1] * (x.dim() - 2))).expand(B, T * Kt, *x.shape[2:])
-        return torch.gather(x, 1, i).reshape(B * T, Kt, *x.shape[2:])
-
-    delta_t = gather(delta) * valid.reshape(B * T, Kt)
     grid_t = grid.unsqueeze(0).expand(B, -1, -1, -1).reshape(B * T, side * side, 2)
-    chunk = max(1, _CHUNK_ELEMENTS // max(1, Kt * side * side))
-    out, fmax = _SplatFunction.apply(gather(mu), gather(prec), delta_t, gather(feats), grid_t,
-                                     cutoff, chunk)
-    out = _untile(out.reshape(B, ty, tx, C, side, side), H, W)
-    fmax = _untile(fmax.reshape(B, ty, tx, 1, side, side), H, W)
-    return Splat(out, fmax)
+    return _Tiles(grid_t, idx, valid.reshape(B * T, Kt).to(mu.dtype), side, ty, tx)
 
 
 def _tile_lists(mu: Tensor, prec: Tensor, grid: Tensor, r2: float) -> tuple[Tensor, Tensor]:
@@ -96,13 +150,6 @@ def _tile_lists(mu: Tensor, prec: Tensor, grid: Tensor, r2: float) -> tuple[Tens
         kt = max(1, int(hit.sum(dim=-1).max()))
         order = torch.sort((~hit).to(torch.int8), dim=-1, stable=True).indices[..., :kt]
         return order, torch.gather(hit, -1, order)
-
-
-def _untile(x: Tensor, H: int, W: int) -> Tensor:
-    """(B, ty, tx, C, s, s) tiles -> (B, C, H, W) image, cropping the overhang."""
-    B, ty, tx, C, s, _ = x.shape
-    img = x.permute(0, 3, 1, 4, 2, 5).reshape(B, C, ty * s, tx * s)
-    return img[:, :, :H, :W]
 
 
 def splat_reference(textons: Textons, size: tuple[int, int], *, window: Window | None = None,

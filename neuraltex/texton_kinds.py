@@ -33,9 +33,11 @@ def texton_area(textons: Textons) -> Tensor:
 
 
 def texton_kinds(textons: Textons, *, max_kinds: int = 6, background: float = BACKGROUND_SHARE,
-                 size_ratio: float = 4.0, seed: int = 0) -> Tensor:
+                 size_ratio: float = 4.0, seed: int = 0, channels: int | None = None) -> Tensor:
     """(B, K) int64: kind >= 0 of each effective texton, -1 for the background layer and for
-    textons that do not exist (delta <= 0.5)."""
+    textons that do not exist (delta <= 0.5). ``channels``: how many leading channels of f
+    the kinds compare (default all; pass the decoder's feature width to leave detail sprites
+    out, :mod:`neuraltex.texton_detail`)."""
     from scipy.cluster.vq import kmeans2
 
     kinds = torch.full(textons.p.shape, -1, dtype=torch.int64)
@@ -50,7 +52,7 @@ def texton_kinds(textons: Textons, *, max_kinds: int = 6, background: float = BA
         k = max(1, min(max_kinds, round(math.sqrt(n / 5))))
         log_area = area[b, idx].clamp_min(1e-12).log().numpy()
         z = (log_area - log_area.mean()) / (log_area.std() + 1e-6)
-        feats = np.concatenate([z[:, None], textons.f[b, idx].detach().cpu().double().numpy()], 1)
+        feats = np.concatenate([z[:, None], textons.f[b, idx, :channels].detach().cpu().double().numpy()], 1)
         if k == 1 or n <= k:
             labels = np.zeros(n, np.int64)
         else:

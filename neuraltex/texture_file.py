@@ -3,13 +3,14 @@ the decoder G that :mod:`neuraltex.fit` made — tied to the base model it was t
 
 The file is safetensors (read without unpickling anything) with a JSON header:
 
-    format "neuraltex.texture", version 1, base_model (id of the base weights),
+    format "neuraltex.texture", version 2 (1 still read), base_model (id of the base weights),
     source {file, width, height, sha256 of the file's bytes}, size [H, W] it was fitted at,
     segmenter, fit {steps, seconds, psnr, base_psnr}, canvas [w, h], sha256 (of all of it)
 
 and tensors ``textons.{mu, cov, v, f, order}`` (1, K, ...), ``labels`` (H, W) int32 and
 ``generator.<name>``: tuned minus base parameters of G in float16 (a few hundred KB for the
-tiny preset). A file whose content does not match its checksum, or that was tuned from other
+tiny preset), and from version 2 ``textons.detail`` (1, K, 3, S, S) float16, the textons'
+detail sprites (:mod:`neuraltex.texton_detail`; K = 400, S = 16: 600 KB). A file whose content does not match its checksum, or that was tuned from other
 base weights, is refused with one line.
 """
 
@@ -27,14 +28,17 @@ from torch import Tensor
 from neuraltex.checkpoint import read_safetensors, tensor_digest
 from neuraltex.errors import InputError
 from neuraltex.fileio import atomic_path
+from neuraltex.texton_detail import attach, split
 from neuraltex.textons import Textons
 
 FORMAT = "neuraltex.texture"
-VERSION = 1
+VERSION = 2
+READS = (1, 2)  # versions this module reads (1: no detail sprites)
 SUFFIX = ".ntex"
 MAX_FILE_BYTES = 64 * 2**20
 MAX_TEXTONS = 4096
 MAX_SIDE = 4096
+MAX_SPRITE = 64
 _TEXTON_FIELDS = ("mu", "cov", "v", "f", "order")
 
 
@@ -44,7 +48,7 @@ class TextureFileError(InputError):
 
 @dataclass
 class Texture:
-    textons: Textons               # (1, K), f = [f_a, d] (neuraltex.tuned_decoder)
+    textons: Textons               # (1, K), f = [f_a, d, vec(D)] (neuraltex.tuned_decoder)
     labels: np.ndarray             # (H, W) int64 segment (texton index) of each pixel
     generator: dict[str, Tensor]   # tuned parameters of G, by name (float32)
     header: dict                   # base_model, source, size, segmenter, fit
@@ -61,9 +65,14 @@ def save_texture(path: str | os.PathLike, model, textons: Textons, labels: np.nd
     size, segmenter and fit; format, version, base model and checksum are added here."""
     from safetensors.torch import save_file
 
+    from neuraltex.tuned_decoder import COLOUR
+
     base = dict(model.generator.named_parameters())
-    tensors = {f"textons.{k}": getattr(textons, k).detach().cpu().contiguous()
+    plain, sprites = split(textons, model.generator.feature_channels - 2 + COLOUR)
+    tensors = {f"textons.{k}": getattr(plain, k).detach().cpu().contiguous()
                for k in _TEXTON_FIELDS}
+    if sprites is not None:
+        tensors["textons.detail"] = sprites.detach().cpu().half().contiguous()
     tensors["labels"] = torch.from_numpy(np.ascontiguousarray(labels, dtype=np.int32))
     for name, p in generator.items():
         tensors[f"generator.{name}"] = (p.detach().cpu() - base[name].detach().cpu()).half()
@@ -87,9 +96,9 @@ def load_texture(path: str | os.PathLike, model) -> Texture:
         raise TextureFileError(f"{path}: texture header is not JSON") from None
     if not isinstance(header, dict) or header.get("format") != FORMAT:
         raise TextureFileError(f"{path}: not a {FORMAT} file")
-    if header.get("version") != VERSION:
+    if header.get("version") not in READS:
         raise TextureFileError(f"{path}: unsupported texture file version "
-                               f"{header.get('version')!r} (this neuraltex reads {VERSION})")
+                               f"{header.get('version')!r} (this neuraltex reads {READS})")
     if header.get("base_model") != (mine := model_id(model)):
         raise TextureFileError(f"{path}: tuned from other base weights "
                                f"({header.get('base_model')!r}; this model is {mine}); "
@@ -138,7 +147,18 @@ def _textons(tensors: dict, header: dict, path: Path, model) -> Textons:
     except (ValueError, TypeError) as exc:
         raise TextureFileError(f"{path}: {exc}") from None
     validate_textons(t, path)
-    return t
+    return t if "textons.detail" not in tensors else attach(t, _detail(tensors, K, path))
+
+
+def _detail(tensors: dict, K: int, path: Path) -> Tensor:
+    """The texton sprites (1, K, 3, S, S) float16 -> float32, validated."""
+    d = tensors["textons.detail"]
+    if (d.dtype != torch.float16 or d.dim() != 5 or tuple(d.shape[:3]) != (1, K, 3)
+            or d.shape[3] != d.shape[4] or not 2 <= d.shape[3] <= MAX_SPRITE
+            or not torch.isfinite(d).all() or d.abs().max() > 4):
+        raise TextureFileError(f"{path}: 'textons.detail' must be (1, K, 3, S, S) float16 "
+                               f"sprites, 2 <= S <= {MAX_SPRITE}, values in [-4, 4]")
+    return d.float()
 
 
 def _labels(tensors: dict, K: int, path: Path) -> np.ndarray:

@@ -7,7 +7,9 @@ every edit, and are traded together by reshuffle and transfer. The decoder adds 
 composited offsets to G's output, so a texton's colour is right from the first tuning step
 and G only has to learn the detail; a pixel that no texton covers gets no offset.
 
-Texton layout: f = [f_a (C_a), d (3)]; splatted features F_s = [f_a, d, v] (B, C_a + 5, H, W).
+Texton layout: f = [f_a (C_a), d (3)], followed by the texton's detail sprite vec(D) (3 S^2)
+when it has one (:mod:`neuraltex.texton_detail`; the decoder renders it after G); splatted
+features F_s = [f_a, d, v] (B, C_a + 5, H, W).
 """
 
 from __future__ import annotations
@@ -60,14 +62,17 @@ def blended_model(a, b, t: float):
     return out
 
 
-def with_offsets(textons: Textons, offsets: Tensor | None = None) -> Textons:
-    """Textons of the base model (f: C_a channels) -> the tuned layout [f_a, d]; ``offsets``
-    (B, K, 3) default to 0 (the texton keeps the colour G gives it)."""
+def with_offsets(textons: Textons, width: int | None = None) -> Textons:
+    """Textons in a narrower layout (the base model's f_a, or [f_a, d] without sprites) ->
+    ``width`` channels (default: [f_a, d]), padded with zeros: no colour offset (the texton
+    keeps the colour G gives it) and no detail."""
     from dataclasses import replace
 
-    if offsets is None:
-        offsets = textons.f.new_zeros(*textons.f.shape[:2], COLOUR)
-    return replace(textons, f=torch.cat([textons.f, offsets], dim=-1))
+    B, K, C = textons.f.shape
+    width = C + COLOUR if width is None else width
+    if width < C:
+        raise ValueError(f"cannot narrow {C} feature channels to {width}")
+    return replace(textons, f=torch.cat([textons.f, textons.f.new_zeros(B, K, width - C)], -1))
 
 
 def combine(model, items: list[tuple[Textons, object]], t: float | None = None):
@@ -76,14 +81,22 @@ def combine(model, items: list[tuple[Textons, object]], t: float | None = None):
     ``items``: (textons, tuned model or None) per texture, in priority order. Without tuned
     ones: ``model`` and the textons as they are. Otherwise the first tuned decoder (with
     ``t``, the first two blended in weight space, (1 - t) G_a + t G_b, as they share the base),
-    and textons of plain textures get zero colour offsets (:func:`with_offsets`).
+    and every set padded to the widest layout (:func:`with_offsets`): plain textures get zero
+    colour offsets, textures without detail sprites get blank ones.
     Returns (decoder model, [textons]).
     """
+    from neuraltex.errors import InputError
+
     tuned = [dec for _, dec in items if dec is not None]
     if not tuned:
         return model, [textons for textons, _ in items]
     decoder = tuned[0]
     if t is not None and len(tuned) > 1:
         decoder = blended_model(tuned[0], tuned[1], t)
-    return decoder, [textons if dec is not None else with_offsets(textons)
-                     for textons, dec in items]
+    base = decoder.generator.feature_channels - 2  # [f_a, d]
+    widths = {textons.feature_dim for textons, dec in items if dec is not None} - {base}
+    if len(widths) > 1:
+        raise InputError("these texture files have detail sprites of different sizes; "
+                         "fit them with the same --detail")
+    width = max(widths, default=base)
+    return decoder, [with_offsets(textons, width) for textons, _ in items]

@@ -4,8 +4,10 @@ computed here on the same images:
 
 - flat: the image's mean colour;  blur: 4x box downsample + bicubic upsample;
 - kmeans8: the image quantized to 8 k-means colours;
+- plain: the fit's PSNR before the detail sprites (neuraltex.texton_detail), i.e. G alone;
 - reshuffle: patch-SWD(input, kind-aware reshuffle) vs patch-SWD(input, reconstruction) and vs
   a random-placement reference (the same textons at uniform random positions, same decoder);
+  swd_shuf0 is the same reshuffle decoded without the sprites (G alone);
 - init: with ``--init-compare N``, the first N images are also tuned from a randomly
   initialized model for the same seconds (does the pretrained model earn its place?).
 
@@ -36,13 +38,14 @@ from neuraltex.fit import FitSettings, fit_texture, psnr  # noqa: E402
 from neuraltex.imageio import load_image  # noqa: E402
 from neuraltex.model import DEFAULT_MODEL, build_model, load_model  # noqa: E402
 from neuraltex.reshuffle import reshuffle  # noqa: E402
+from neuraltex.texton_detail import SPRITE  # noqa: E402
 from neuraltex.texton_kinds import texton_kinds  # noqa: E402
 from neuraltex.texture_file import load_texture, save_texture  # noqa: E402
 from neuraltex.tuned_decoder import tuned_model  # noqa: E402
 
 REAL = Path(__file__).resolve().parents[1] / "data" / "real_textures"
-COLS = ("flat", "blur", "kmeans8", "fit", "ssim_blur", "ssim_fit", "swd_rec", "swd_shuf",
-        "swd_rand", "seconds", "steps", "textons", "kib", "edit_s")
+COLS = ("flat", "blur", "kmeans8", "plain", "fit", "ssim_blur", "ssim_fit", "swd_rec",
+        "swd_shuf", "swd_shuf0", "swd_rand", "seconds", "steps", "textons", "kib", "edit_s")
 
 
 def references(image: torch.Tensor) -> dict[str, torch.Tensor]:
@@ -91,15 +94,19 @@ def evaluate(model, image: torch.Tensor, settings: FitSettings, workdir: Path) -
     row["kib"] = save_texture(path, model, fit.textons, fit.labels, fit.generator, header) / 1024
     tex = load_texture(path, model)  # what the CLI sees: fp16 deltas
     decoder, size = tuned_model(model, tex.generator), tuple(image.shape[-2:])
+    plain = decoder.generator.feature_channels - 2  # [f_a, d]; detail sprites after
     with torch.no_grad():
         rec = decoder.decode(tex.textons, size)[0]
         start = time.perf_counter()
-        shuf = decoder.decode(reshuffle(tex.textons, seed=1, kinds=texton_kinds(tex.textons)),
-                              size)[0]
+        kinds = texton_kinds(tex.textons, channels=plain)
+        shuffled = reshuffle(tex.textons, seed=1, kinds=kinds)
+        shuf = decoder.decode(shuffled, size)[0]
         row["edit_s"] = time.perf_counter() - start
+        shuf0 = decoder.decode(replace(shuffled, f=shuffled.f[..., :plain]), size)[0]
         rand = decoder.decode(random_placement(tex.textons), size)[0]
-    row.update(fit=psnr(rec, image), ssim_fit=ssim(rec, image), swd_rec=swd(image, rec),
-               swd_shuf=swd(image, shuf), swd_rand=swd(image, rand), seconds=fit.seconds,
+    row.update(fit=psnr(rec, image), plain=fit.plain_psnr, ssim_fit=ssim(rec, image),
+               swd_rec=swd(image, rec), swd_shuf=swd(image, shuf), swd_shuf0=swd(image, shuf0),
+               swd_rand=swd(image, rand), seconds=fit.seconds + fit.detail_seconds,
                steps=fit.steps, textons=fit.textons.num_textons, segmenter=fit.segmenter)
     row["_pictures"] = (rec, shuf)
     return row
@@ -139,13 +146,15 @@ def summary(rows: list[tuple[str, dict]]) -> list[str]:
     n = len(r)
     mean = lambda key: float(np.mean([x[key] for x in r]))  # noqa: E731
     return [
-        f"mean PSNR: fit {mean('fit'):.2f} dB | flat {mean('flat'):.2f} | blur {mean('blur'):.2f} "
+        f"mean PSNR: fit {mean('fit'):.2f} dB (G alone {mean('plain'):.2f}) | flat {mean('flat'):.2f} | blur {mean('blur'):.2f} "
         f"| kmeans8 {mean('kmeans8'):.2f}; target blur + 3 = {mean('blur') + 3:.2f}",
         f"fit above flat on {sum(x['fit'] > x['flat'] for x in r)}/{n}, above blur on "
         f"{sum(x['fit'] > x['blur'] for x in r)}/{n}",
         f"reshuffle SWD <= 1.25 x reconstruction SWD on "
         f"{sum(x['swd_shuf'] <= 1.25 * x['swd_rec'] for x in r)}/{n}; below random placement "
-        f"on {sum(x['swd_shuf'] < x['swd_rand'] for x in r)}/{n}",
+        f"on {sum(x['swd_shuf'] < x['swd_rand'] for x in r)}/{n}; below the same reshuffle "
+        f"without sprites on {sum(x['swd_shuf'] < x['swd_shuf0'] for x in r)}/{n} (mean SWD "
+        f"{mean('swd_shuf'):.2f} vs {mean('swd_shuf0'):.2f})",
         f"fit seconds mean {mean('seconds'):.1f} (max {max(x['seconds'] for x in r):.1f}); "
         f"texture file {mean('kib'):.0f} KiB (max {max(x['kib'] for x in r):.0f}); reshuffle "
         f"decode {mean('edit_s'):.2f} s",
@@ -157,6 +166,8 @@ def main() -> None:
     ap.add_argument("--seconds", type=float, default=45.0, help="fit budget per image (45)")
     ap.add_argument("--steps", type=int, help="fit step budget instead (reproducible)")
     ap.add_argument("--segmenter", default="auto", help="fit --segmenter (default auto)")
+    ap.add_argument("--detail", type=int, default=SPRITE,
+                    help=f"fit --detail: sprite side (default {SPRITE}; 0: none)")
     ap.add_argument("--limit", type=int, help="only the first N real images")
     ap.add_argument("--procedural", type=int, default=0, help="also N procedural images")
     ap.add_argument("--init-compare", type=int, default=0,
@@ -170,7 +181,7 @@ def main() -> None:
     model = load_model(DEFAULT_MODEL)
     print(f"start-up (import + load model): {time.perf_counter() - start:.2f} s")
     settings = FitSettings(segmenter=args.segmenter, seconds=None if args.steps else args.seconds,
-                           steps=args.steps)
+                           steps=args.steps, detail=args.detail)
     images = [(p.stem, load_image(p)) for p in sorted(REAL.glob("*.png"))][:args.limit]
     images += procedural_images(args.procedural)
     rows = []
@@ -206,8 +217,9 @@ def init_compare(images, settings: FitSettings) -> list[str]:
     out = []
     for name, image in images:
         a, b = fit_texture(pre, image, settings), fit_texture(rnd, image, settings)
-        out.append(f"init {name}: pretrained {a.psnr:.2f} dB vs random {b.psnr:.2f} dB "
-                   f"({a.steps} / {b.steps} steps)")
+        out.append(f"init {name}: pretrained {a.plain_psnr:.2f} dB vs random "
+                   f"{b.plain_psnr:.2f} dB before sprites, {a.psnr:.2f} vs {b.psnr:.2f} with "
+                   f"them ({a.steps} / {b.steps} steps)")
     return out
 
 

@@ -52,7 +52,8 @@ def main() -> None:
         image = load_image(REAL / f"{name}.png")
         fit = fit_texture(model, image, FitSettings(seconds=args.seconds))
         print(f"{name}: {fit.segmenter}, {fit.textons.num_textons} textons, "
-              f"{fit.steps} steps, PSNR {fit.base_psnr:.2f} -> {fit.psnr:.2f} dB", flush=True)
+              f"{fit.steps} steps, PSNR {fit.base_psnr:.2f} -> {fit.plain_psnr:.2f} dB, with detail "
+              f"sprites {fit.psnr:.2f} dB", flush=True)
         fits.append((name, image, fit.textons, tuned_model(model, fit.generator)))
     rows = []
     for i, (name, image, t, dec) in enumerate(fits):
@@ -71,7 +72,7 @@ def main() -> None:
 @torch.no_grad()
 def row(model, name, image, t, dec, other_name, u, other) -> list:
     size = tuple(image.shape[-2:])
-    kinds = texton_kinds(t)
+    kinds = texton_kinds(t, channels=dec.generator.feature_channels - 2)
     tiles = [(name, image), ("fit reconstruction", dec.decode(t, size))]
     for seed in (1, 2):
         tiles.append((f"reshuffle {seed}", dec.decode(reshuffle(t, seed=seed, kinds=kinds), size)))

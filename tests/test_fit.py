@@ -147,6 +147,15 @@ def test_fit_stops_at_its_time_budget(model):
     assert fit.seconds < 5 and fit.steps >= 1
 
 
+def test_detail_sprites_add_what_the_decoder_misses(model, fitted):
+    assert fitted.textons.feature_dim == model.generator.feature_channels + 1 + 3 * 16 * 16
+    assert fitted.psnr > fitted.plain_psnr + 3  # dB
+    plain = fit_texture(model, discs(32), FitSettings(steps=40, seconds=None, detail=0,
+                                                      segmenter="felzenszwalb", crop=32))
+    assert plain.textons.feature_dim == model.generator.feature_channels + 1
+    assert plain.psnr == pytest.approx(fitted.plain_psnr, abs=1e-4)  # the same tuning before
+
+
 def test_auto_says_what_it_picked(model):
     fit = fit_texture(model, discs(32), FitSettings(steps=1, seconds=None))
     assert fit.segmenter in ("felzenszwalb", "slic")
@@ -158,7 +167,10 @@ def test_texture_file_round_trip(tmp_path, model, fitted):
                         {"size": [32, 32], "source": {}, "segmenter": "x", "fit": {}})
     assert 0 < size < 2 * 2**20
     tex = load_texture(path, model)
-    torch.testing.assert_close(tex.textons.f, fitted.textons.f)
+    plain = model.generator.feature_channels + 1  # [f_a, d]; detail sprites after
+    assert tex.textons.feature_dim == plain + 3 * 16 * 16  # the default 16 px sprites
+    torch.testing.assert_close(tex.textons.f[..., :plain], fitted.textons.f[..., :plain])
+    torch.testing.assert_close(tex.textons.f, fitted.textons.f, atol=2e-3, rtol=0)  # float16
     assert (tex.labels == fitted.labels).all()
     with torch.no_grad():
         a = tuned_model(model, tex.generator).decode(tex.textons, (32, 32))

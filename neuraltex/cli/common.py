@@ -124,10 +124,16 @@ def decoder_for(model: TextonAutoencoder, *textures: Texture,
 
 
 def check_fits(textons: Textons, model: TextonAutoencoder, source: Path) -> None:
-    """InputError unless the textons have the feature channels the model's generator takes."""
-    if textons.feature_dim + 2 != model.generator.feature_channels:
+    """InputError unless the textons have the feature channels the model's generator takes
+    (and possibly detail sprites after them, :mod:`neuraltex.texton_detail`)."""
+    from neuraltex.texton_detail import sprite_side
+
+    plain = model.generator.feature_channels - 2
+    try:
+        sprite_side(textons.feature_dim - plain)
+    except ValueError:
         raise InputError(f"{source}: {textons.feature_dim} feature channels, but the "
-                         f"model expects {model.generator.feature_channels - 2}")
+                         f"model expects {plain} (+ 3 S^2 for detail sprites)") from None
 
 
 def output_size(size: list[int] | None, canvas: tuple[float, float], default_short: int,

@@ -113,7 +113,7 @@ def cmd_reshuffle(args: argparse.Namespace) -> int:
     model = _load(args)
     tex = _texture(args, model, args.image)
     decoder, (textons,) = common.decoder_for(model, tex)
-    kinds = texton_kinds(textons)
+    kinds = texton_kinds(textons, channels=decoder.generator.feature_channels - 2)
     for i, path in enumerate(paths):
         seed = None if args.seed is None else args.seed + i
         out = reshuffle(textons, seed=seed, kinds=kinds)

@@ -10,13 +10,14 @@ from pathlib import Path
 from neuraltex.cli import args as types
 from neuraltex.cli import common
 from neuraltex.errors import InputError
+from neuraltex.texture_file import MAX_SPRITE
 
 MAX_FIT_SIDE = 1024
 
 
 def cmd_fit(args: argparse.Namespace) -> int:
     """Tune the model to one texture (segments -> textons, then the decoder G and the textons'
-    appearance, for --seconds or --steps) and write a texture file (.ntex): sharp
+    appearance, for --seconds or --steps, then a detail sprite per texton) and write a texture file (.ntex): sharp
     reconstructions and edits of that texture with every other command."""
     import torch
 
@@ -39,17 +40,19 @@ def cmd_fit(args: argparse.Namespace) -> int:
     image = shrink_short_side(image[None], args.size)[0].clamp(0, 1).to(args.device)
     seconds = DEFAULT_SECONDS if args.seconds is None and args.steps is None else args.seconds
     settings = FitSettings(segmenter=args.segmenter, seconds=seconds, steps=args.steps,
-                           max_textons=args.max_textons, seed=args.seed or 0)
+                           max_textons=args.max_textons, detail=args.detail, seed=args.seed or 0)
     fit = fit_texture(model, image, settings)
     source = {"file": args.image.name, "width": w, "height": h,
               "sha256": hashlib.sha256(args.image.read_bytes()).hexdigest()}
     header = {"source": source, "size": list(image.shape[-2:]), "segmenter": fit.segmenter,
               "fit": {"steps": fit.steps, "seconds": round(fit.seconds, 2),
-                      "psnr": round(fit.psnr, 3), "base_psnr": round(fit.base_psnr, 3)}}
+                      "psnr": round(fit.psnr, 3), "base_psnr": round(fit.base_psnr, 3),
+                      "plain_psnr": round(fit.plain_psnr, 3), "detail": args.detail}}
     size = save_texture(args.output, model, fit.textons, fit.labels, fit.generator, header)
     print(f"{fit.segmenter} segments -> {fit.textons.num_textons} textons; tuned "
           f"{fit.steps} steps in {fit.seconds:.1f} s: PSNR {fit.base_psnr:.2f} -> "
-          f"{fit.psnr:.2f} dB")
+          f"{fit.plain_psnr:.2f} dB" + (f"; detail sprites ({fit.detail_seconds:.1f} s) -> "
+                                        f"{fit.psnr:.2f} dB" if args.detail else ""))
     print(f"wrote {args.output} ({size / 1024:.0f} KB)")
     if args.preview:
         from neuraltex.tuned_decoder import tuned_model
@@ -74,12 +77,15 @@ def _check(args: argparse.Namespace) -> None:
         raise InputError(f"--threads must lie in 1..256, got {args.threads}")
     if not 2 <= args.max_textons <= 4096:
         raise InputError(f"--max-textons must lie in 2..4096, got {args.max_textons}")
+    if args.detail != 0 and not 2 <= args.detail <= MAX_SPRITE:
+        raise InputError(f"--detail must be 0 or lie in 2..{MAX_SPRITE}, got {args.detail}")
 
 
 def add_commands(sub) -> None:
     """Register fit."""
     from neuraltex.fit import SEGMENTERS
     from neuraltex.segmenters import MAX_SEGMENTS
+    from neuraltex.texton_detail import SPRITE
 
     p = sub.add_parser("fit", help="tune the model to one texture -> texture file (.ntex)",
                        description=cmd_fit.__doc__)
@@ -100,6 +106,9 @@ def add_commands(sub) -> None:
                    help="fit at this short side; larger images are downscaled (default 256)")
     p.add_argument("--max-textons", type=int, default=MAX_SEGMENTS,
                    help=f"at most this many textons (default {MAX_SEGMENTS})")
+    p.add_argument("--detail", type=int, default=SPRITE,
+                   help=f"side of each texton's detail sprite, texels: the fine detail G misses, "
+                   f"moving with the texton in every edit (default {SPRITE}; 0: none)")
     p.add_argument("--preview", type=Path,
                    help="also write input | tuned reconstruction side by side (.png/.jpg/.webp)")
     p.add_argument("--checkpoint", help="base model .safetensors (default: the shipped model)")
