@@ -8,7 +8,8 @@ D_i (3, S, S): the residual image (input - G's decode) around it, resampled into
     p = mu_i + A_i u,  u in [-1, 1]^2,  A_i A_i^T = REACH^2 U_i
 
 so that M^2 = REACH^2 |u|^2 (eq. 4.11): the unit square covers the Gaussian out to
-Mahalanobis distance M = REACH along the frame's axes. The detail image adds at each pixel the sprites of the ``k`` textons with
+Mahalanobis distance M = REACH along the frame's axes. The detail image adds at each pixel
+the sprites of the ``k`` textons with
 the largest composited weights a_i(p) (eq. 4.13), normalized over them:
 
     r(p) = sum_k a_k(p) D_k(A_k^-1 (p - mu_k)) / max(sum_k a_k(p), FLOOR)
@@ -125,7 +126,8 @@ class DetailSampler:
     def fit(self, residual: Tensor, side: int = SPRITE, iters: int = 40,
             ridge: float = RIDGE) -> Tensor:
         """Least-squares sprites: argmin |render(D) - residual|^2 + ridge |D|^2, by conjugate
-        gradients on the normal equations; render is linear, so its transpose is its vector-Jacobian product. residual (B, 3, H, W) -> (B, K, 3, S, S)."""
+        gradients on the normal equations; render is linear, so its transpose is its
+        vector-Jacobian product. residual (B, 3, H, W) -> (B, K, 3, S, S)."""
         B = residual.shape[0]
         shape = (B, self.K, 3, side, side)
 

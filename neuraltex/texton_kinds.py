@@ -52,7 +52,8 @@ def texton_kinds(textons: Textons, *, max_kinds: int = 6, background: float = BA
         k = max(1, min(max_kinds, round(math.sqrt(n / 5))))
         log_area = area[b, idx].clamp_min(1e-12).log().numpy()
         z = (log_area - log_area.mean()) / (log_area.std() + 1e-6)
-        feats = np.concatenate([z[:, None], textons.f[b, idx, :channels].detach().cpu().double().numpy()], 1)
+        f = textons.f[b, idx, :channels].detach().cpu().double().numpy()
+        feats = np.concatenate([z[:, None], f], 1)
         if k == 1 or n <= k:
             labels = np.zeros(n, np.int64)
         else:

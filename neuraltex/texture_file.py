@@ -10,7 +10,8 @@ The file is safetensors (read without unpickling anything) with a JSON header:
 and tensors ``textons.{mu, cov, v, f, order}`` (1, K, ...), ``labels`` (H, W) int32 and
 ``generator.<name>``: tuned minus base parameters of G in float16 (a few hundred KB for the
 tiny preset), and from version 2 ``textons.detail`` (1, K, 3, S, S) float16, the textons'
-detail sprites (:mod:`neuraltex.texton_detail`; K = 400, S = 16: 600 KB). A file whose content does not match its checksum, or that was tuned from other
+detail sprites (:mod:`neuraltex.texton_detail`; K = 400, S = 16: 600 KB). A file whose
+content does not match its checksum, or that was tuned from other
 base weights, is refused with one line.
 """
 

@@ -146,7 +146,8 @@ def summary(rows: list[tuple[str, dict]]) -> list[str]:
     n = len(r)
     mean = lambda key: float(np.mean([x[key] for x in r]))  # noqa: E731
     return [
-        f"mean PSNR: fit {mean('fit'):.2f} dB (G alone {mean('plain'):.2f}) | flat {mean('flat'):.2f} | blur {mean('blur'):.2f} "
+        f"mean PSNR: fit {mean('fit'):.2f} dB (G alone {mean('plain'):.2f}) | flat "
+        f"{mean('flat'):.2f} | blur {mean('blur'):.2f} "
         f"| kmeans8 {mean('kmeans8'):.2f}; target blur + 3 = {mean('blur') + 3:.2f}",
         f"fit above flat on {sum(x['fit'] > x['flat'] for x in r)}/{n}, above blur on "
         f"{sum(x['fit'] > x['blur'] for x in r)}/{n}",

@@ -52,8 +52,8 @@ def main() -> None:
         image = load_image(REAL / f"{name}.png")
         fit = fit_texture(model, image, FitSettings(seconds=args.seconds))
         print(f"{name}: {fit.segmenter}, {fit.textons.num_textons} textons, "
-              f"{fit.steps} steps, PSNR {fit.base_psnr:.2f} -> {fit.plain_psnr:.2f} dB, with detail "
-              f"sprites {fit.psnr:.2f} dB", flush=True)
+              f"{fit.steps} steps, PSNR {fit.base_psnr:.2f} -> {fit.plain_psnr:.2f} dB, "
+              f"with detail sprites {fit.psnr:.2f} dB", flush=True)
         fits.append((name, image, fit.textons, tuned_model(model, fit.generator)))
     rows = []
     for i, (name, image, t, dec) in enumerate(fits):

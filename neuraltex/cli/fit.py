@@ -17,7 +17,8 @@ MAX_FIT_SIDE = 1024
 
 def cmd_fit(args: argparse.Namespace) -> int:
     """Tune the model to one texture (segments -> textons, then the decoder G and the textons'
-    appearance, for --seconds or --steps, then a detail sprite per texton) and write a texture file (.ntex): sharp
+    appearance, for --seconds or --steps, then a detail sprite per texton) and write a texture
+    file (.ntex): sharp
     reconstructions and edits of that texture with every other command."""
     import torch
 
