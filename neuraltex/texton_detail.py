@@ -9,8 +9,8 @@ D_i (3, S, S): the residual image (input - G's decode) around it, resampled into
 
 so that M^2 = REACH^2 |u|^2 (eq. 4.11): the unit square covers the Gaussian out to
 Mahalanobis distance M = REACH along the frame's axes. The detail image adds at each pixel
-the sprites of the ``k`` textons with
-the largest composited weights a_i(p) (eq. 4.13), normalized over them:
+the sprites of the ``k`` textons with the largest composited weights a_i(p) (eq. 4.13),
+normalized over them:
 
     r(p) = sum_k a_k(p) D_k(A_k^-1 (p - mu_k)) / max(sum_k a_k(p), FLOOR)
 
