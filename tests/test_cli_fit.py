@@ -67,7 +67,38 @@ def test_reconstruction_from_the_texture_file_is_the_tuned_one(files, tmp_path):
     assert ((tuned - src) ** 2).mean() < ((base - src) ** 2).mean()
 
 
+def test_propagate_edits_a_texture_files_reconstruction(files, tmp_path, capsys):
+    rec, edited, out = tmp_path / "rec.png", tmp_path / "edited.png", tmp_path / "out.png"
+    assert main(["reconstruct", str(files / "a.ntex"), "-o", str(rec)]) == 0
+    pic = np.asarray(Image.open(rec)).copy()
+    pic[14:18, 18:22] = (255, 0, 255)  # a magenta dot on one texton
+    Image.fromarray(pic).save(edited)
+    assert main(["propagate", str(files / "a.ntex"), str(edited), "-o", str(out),
+                 "--threshold", "0.5"]) == 0
+    assert "propagated to" in capsys.readouterr().out
+    result = np.asarray(Image.open(out)).astype(int)
+    magenta = (result[..., 0] > 200) & (result[..., 1] < 60) & (result[..., 2] > 200)
+    assert magenta.sum() > 16  # the dot, and copies of it elsewhere
+    wide = tmp_path / "wide.png"
+    Image.fromarray(np.zeros((32, 64, 3), np.uint8)).save(wide)
+    assert main(["propagate", str(files / "a.ntex"), str(wide), "-o", str(out)]) == 2
+    assert "aspect" in capsys.readouterr().err
+
+
+def test_a_fit_without_detail_sprites_still_decodes_everywhere(files, tmp_path):
+    plain = tmp_path / "plain.ntex"
+    assert main(["fit", str(files / "a.png"), "-o", str(plain), "--steps", "5",
+                 "--segmenter", "felzenszwalb", "--detail", "0"]) == 0
+    assert plain.stat().st_size < (files / "a.ntex").stat().st_size
+    # mixed with a file that has sprites: padded to one layout
+    assert main(["interpolate", str(plain), str(files / "a.ntex"), "-o",
+                 str(tmp_path / "mix.png"), "--t", "0.5"]) == 0
+    assert main(["transfer", str(files / "a.ntex"), str(plain), "-o",
+                 str(tmp_path / "tr.png")]) == 0
+
+
 @pytest.mark.parametrize("extra, message", [
+    (["--detail", "1"], "--detail"),
     (["--seconds", "0"], "--seconds"),
     (["--steps", "0"], "--steps"),
     (["--size", "8"], "--size"),

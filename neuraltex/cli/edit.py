@@ -171,8 +171,9 @@ def cmd_edit(args: argparse.Namespace) -> int:
         common.check_textons_out(args.textons_out)
     model = _load(args)
     tex = _texture(args, model, args.image)
-    edited = apply_edit_list(tex.textons, args.edits)
-    image = _decode(args, tex.decoder or model, edited, tex.short)
+    decoder = tex.decoder or model
+    edited = apply_edit_list(tex.textons, args.edits, decoder.generator.feature_channels - 2)
+    image = _decode(args, decoder, edited, tex.short)
     if args.textons_out:
         save_textons(edited, args.textons_out)
         print(f"wrote {args.textons_out}")
@@ -182,21 +183,39 @@ def cmd_edit(args: argparse.Namespace) -> int:
 
 def cmd_propagate(args: argparse.Namespace) -> int:
     """Edit propagation (4.4.5.2): the change between ORIGINAL and EDITED, made on one texton,
-    is repeated on every similar texton (pixel space, aligned by their Gaussians)."""
+    is repeated on every similar texton (pixel space, aligned by their Gaussians). ORIGINAL
+    may be a texture file (.ntex): then EDITED is an edit of its reconstruction (`neuraltex
+    reconstruct T.ntex`), and its fitted textons say what is similar."""
     from neuraltex.edit.propagate import propagate_edit
     from neuraltex.imageio import check_output_path, load_image
 
     check_output_path(args.output)
     edited = load_image(args.edited, limits=common.limits(args)).to(args.device)
     model = _load(args)
-    original, enc = common.encode(model, args.image, common.limits(args), args.device)
+    original, textons, channels = _original(args, model, tuple(edited.shape[-2:]))
     if edited.shape != original.shape:
         raise InputError(f"{args.edited}: {edited.shape[2]}x{edited.shape[1]}, but the original "
                          f"is {original.shape[2]}x{original.shape[1]}")
-    out = propagate_edit(original, edited, enc.textons, args.threshold, args.radius)
+    out = propagate_edit(original, edited, textons, args.threshold, args.radius,
+                         channels=channels)
     print(f"edited texton {out.source}; propagated to {int(out.targets.sum())} similar textons")
     common.save(out.image, args.output)
     return 0
+
+
+def _original(args: argparse.Namespace, model, size: tuple[int, int]):
+    """(original image (3, H, W), its textons, feature channels to compare) for propagate:
+    an image encoded by the model, or a texture file's reconstruction at the edited size."""
+    if args.image.suffix.lower() != common.TEXTURE_FILE:
+        original, enc = common.encode(model, args.image, common.limits(args), args.device)
+        return original, enc.textons, None
+    tex = _texture(args, model, args.image)
+    w, h = tex.textons.canvas
+    if abs(size[1] / size[0] - w / h) > 0.02 * w / h:
+        raise InputError(f"{args.edited}: {size[1]}x{size[0]} does not have the aspect of "
+                         f"{args.image} ({w / h:.3f}); edit its reconstruction")
+    original = common.decode(tex.decoder, tex.textons, size, args.device)[0]
+    return original, tex.textons, tex.decoder.generator.feature_channels - 2
 
 
 def cmd_animate(args: argparse.Namespace) -> int:

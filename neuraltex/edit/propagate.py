@@ -77,10 +77,12 @@ def edited_texton(textons: Textons, diff: Tensor, min_change: float = MIN_CHANGE
 
 
 def propagate_edit(original: Tensor, edited: Tensor, textons: Textons, threshold: float = 0.9,
-                   radius: float = 3.0, min_change: float = MIN_CHANGE) -> Propagation:
+                   radius: float = 3.0, min_change: float = MIN_CHANGE,
+                   channels: int | None = None) -> Propagation:
     """Repeat the edit (original -> edited, both (3, H, W)) on similar textons.
 
-    ``textons``: one set (batch size 1) encoded from ``original``.
+    ``textons``: one set (batch size 1) encoded from ``original``; ``channels``: how much of
+    their f the similarity compares (:func:`select_similar`).
     """
     if original.shape != edited.shape or original.dim() != 3:
         raise InputError(f"original {tuple(original.shape)} and edited "
@@ -88,7 +90,7 @@ def propagate_edit(original: Tensor, edited: Tensor, textons: Textons, threshold
     t = textons.to(device=original.device, dtype=original.dtype)
     diff = edited - original
     s = edited_texton(t, diff, min_change)
-    targets = select_similar(t, s, threshold).to(original.device)
+    targets = select_similar(t, s, threshold, channels).to(original.device)
     targets[s] = False
     H, W = original.shape[-2:]
     grid = pixel_grid(H, W, _window(t, H, W), device=diff.device, dtype=diff.dtype)

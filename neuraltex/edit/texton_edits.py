@@ -62,10 +62,12 @@ def select_region(t: Textons, box) -> Tensor:
     return t.in_region(tuple(box))[0] & (t.delta[0] > 0.5)
 
 
-def select_similar(t: Textons, index: int, threshold: float = 0.9) -> Tensor:
-    """Effective textons whose feature has cosine similarity >= threshold with texton index."""
+def select_similar(t: Textons, index: int, threshold: float = 0.9,
+                   channels: int | None = None) -> Tensor:
+    """Effective textons whose feature has cosine similarity >= threshold with texton index.
+    ``channels``: compare only the first channels of f (e.g. without detail sprites)."""
     _one(t)
-    f = torch.nn.functional.normalize(t.f[0], dim=-1)
+    f = torch.nn.functional.normalize(t.f[0, :, :channels], dim=-1)
     return (f @ f[index] >= threshold) & (t.delta[0] > 0.5)
 
 
@@ -108,21 +110,22 @@ def duplicate(t: Textons, mask: Tensor, dx: float = 0.0, dy: float = 0.0) -> Tex
     return Textons.cat([t, copies], dim=1)
 
 
-_SELECTORS = {"point": lambda t, s: select_point(t, *s["point"]),
-              "index": lambda t, s: select_index(t, s["index"]),
-              "region": lambda t, s: select_region(t, s["region"]),
-              "similar_to": lambda t, s: select_similar(t, int(s["similar_to"]),
-                                                        float(s.get("threshold", 0.9)))}
+_SELECTORS = {"point": lambda t, s, c: select_point(t, *s["point"]),
+              "index": lambda t, s, c: select_index(t, s["index"]),
+              "region": lambda t, s, c: select_region(t, s["region"]),
+              "similar_to": lambda t, s, c: select_similar(t, int(s["similar_to"]),
+                                                           float(s.get("threshold", 0.9)), c)}
 
 
-def apply_edit(t: Textons, edit: dict) -> Textons:
-    """Apply one edit dictionary (see the module docstring)."""
+def apply_edit(t: Textons, edit: dict, channels: int | None = None) -> Textons:
+    """Apply one edit dictionary (see the module docstring); ``channels``: how much of f the
+    similarity selection compares (:func:`select_similar`)."""
     sel = edit.get("select")
     if not isinstance(sel, dict) or len(set(sel) & set(_SELECTORS)) != 1:
         raise InputError(f"edit needs 'select' with one of {sorted(_SELECTORS)}: {edit}")
     kind = next(k for k in sel if k in _SELECTORS)
     try:
-        mask = _SELECTORS[kind](t, sel)
+        mask = _SELECTORS[kind](t, sel, channels)
         op = edit.get("op")
         if op == "move":
             return move(t, mask, *edit["by"])
@@ -139,8 +142,9 @@ def apply_edit(t: Textons, edit: dict) -> Textons:
     raise InputError(f"unknown edit op {op!r} (move, scale, rotate, delete, duplicate)")
 
 
-def apply_edit_list(t: Textons, edits) -> Textons:
-    """Apply a list of edits, or the list stored in a JSON file."""
+def apply_edit_list(t: Textons, edits, channels: int | None = None) -> Textons:
+    """Apply a list of edits, or the list stored in a JSON file (``channels``: see
+    :func:`apply_edit`)."""
     if isinstance(edits, (str, Path)):
         try:
             if Path(edits).stat().st_size > MAX_EDIT_FILE_BYTES:
@@ -156,7 +160,7 @@ def apply_edit_list(t: Textons, edits) -> Textons:
     for i, edit in enumerate(edits):
         if not isinstance(edit, dict):
             raise InputError(f"edit {i}: each edit is a JSON object, got {str(edit)[:40]}")
-        t = apply_edit(t, edit)
+        t = apply_edit(t, edit, channels)
         check_count(t.num_textons, MAX_TEXTONS, f"textons after edit {i}")
         if not all(torch.isfinite(x).all() for x in (t.mu, t.cov)):
             raise InputError(f"edit {i} {json.dumps(edit)[:80]}: moves textons out of range")
