@@ -127,7 +127,9 @@ class DetailSampler:
             ridge: float = RIDGE) -> Tensor:
         """Least-squares sprites: argmin |render(D) - residual|^2 + ridge |D|^2, by conjugate
         gradients on the normal equations; render is linear, so its transpose is its
-        vector-Jacobian product. residual (B, 3, H, W) -> (B, K, 3, S, S)."""
+        vector-Jacobian product. Texels are kept in [-1, 1], the range of a residual (a
+        larger value only makes up for a tiny weight, and would flare where the texton
+        moves). residual (B, 3, H, W) -> (B, K, 3, S, S)."""
         B = residual.shape[0]
         shape = (B, self.K, 3, side, side)
 
@@ -150,7 +152,7 @@ class DetailSampler:
             x, r = x + alpha * p, r - alpha * q
             rr_new = (r * r).sum()
             p, rr = r + rr_new / rr * p, rr_new
-        return x
+        return x.clamp(-1, 1)
 
 
 def render_detail(textons: Textons, sprites: Tensor, size: tuple[int, int],
