@@ -18,8 +18,8 @@ A sprite is appearance: it is stored after the texton's features, f = [f_a, d, v
 (:mod:`neuraltex.tuned_decoder`), so every edit that moves, permutes or blends features
 (reshuffle, transfer, interpolation, variation) moves, permutes or blends the sprites the
 same way, and every edit of the geometry (move, scale, rotate, animate) carries the sprite
-along with the frame. The frame's first axis follows the texton's direction v, so a rotated
-texton shows a rotated sprite.
+along with the frame. The frame's first axis follows the Gaussian's long axis (or, for a round
+one, the texton's direction v), so a rotated texton shows a rotated sprite.
 """
 
 from __future__ import annotations
@@ -39,6 +39,9 @@ SPRITE = 16   # sprite side S, texels
 REACH = 2.0   # the sprite covers |u| <= 1 <-> M <= REACH along the frame's axes
 TOP_K = 4     # textons blended per pixel
 FLOOR = 0.25  # least total weight the blend divides by (fades detail where textons fade)
+# (l1 - l2) / (l1 + l2) of U's eigenvalues below which a Gaussian counts as round (its sprite
+# turns with v) and above which as elongated (its sprite lies along the long axis)
+ROUND, ELONGATED = 0.1, 0.3
 RIDGE = 1e-2  # Tikhonov weight of the sprite fit (keeps unseen texels at 0)
 
 
@@ -70,16 +73,23 @@ def attach(textons: Textons, sprites: Tensor) -> Textons:
 
 def frames(textons: Textons) -> Tensor:
     """A_i = REACH U_i^(1/2) Q_i: u = A_i^-1 (p - mu_i) has |u| = M / REACH, and the first
-    axis A_i e_1 lies along v_i. (B, K, 2, 2).
+    axis A_i e_1 lies along the Gaussian's long axis (pointing the way of v_i) when the
+    Gaussian is elongated, along v_i when it is round, blended in between. (B, K, 2, 2).
 
-    Q the rotation taking e_1 to U^(-1/2) v / |U^(-1/2) v|: any A with
-    A A^T = U maps the unit disc onto the Gaussian's M = 1 ellipse; this one is continuous in
-    (U, v) and turns with the texton (R U R^T, R v -> R A)."""
-    lam, vec = torch.linalg.eigh(textons.cov)                     # (B, K, 2), (B, K, 2, 2)
+    Q is the rotation taking e_1 to U^(-1/2) r / |U^(-1/2) r| for that reference direction r:
+    any A with A A^T = U maps the unit disc onto the Gaussian's M = 1 ellipse; this one turns
+    with the texton (R U R^T, R v -> R A), and two elongated textons of one shape (bricks,
+    blades) get their sprites the same way round whatever their directions v say."""
+    lam, vec = torch.linalg.eigh(textons.cov)                     # ascending; (B,K,2), (B,K,2,2)
     root = lam.clamp_min(1e-12).sqrt()
     half = vec @ torch.diag_embed(root) @ vec.transpose(-1, -2)    # U^(1/2)
     inv_half = vec @ torch.diag_embed(1 / root) @ vec.transpose(-1, -2)
-    e = F.normalize((inv_half @ textons.v.unsqueeze(-1)).squeeze(-1), dim=-1, eps=1e-12)
+    major = vec[..., :, 1]                                        # (B, K, 2)
+    major = torch.where((major * textons.v).sum(-1, keepdim=True) < 0, -major, major)
+    ratio = (lam[..., 1] - lam[..., 0]) / (lam[..., 1] + lam[..., 0]).clamp_min(1e-12)
+    w = ((ratio - ROUND) / (ELONGATED - ROUND)).clamp(0, 1).unsqueeze(-1)
+    r = w * major + (1 - w) * textons.v
+    e = F.normalize((inv_half @ r.unsqueeze(-1)).squeeze(-1), dim=-1, eps=1e-12)
     e = torch.where(e.norm(dim=-1, keepdim=True) > 0.5, e, torch.tensor([1.0, 0.0]).to(e))
     Q = torch.stack([e, torch.stack([-e[..., 1], e[..., 0]], -1)], dim=-1)  # columns e, e_perp
     return half @ Q * REACH

@@ -42,12 +42,16 @@ def test_top_weights_are_the_largest_composited_weights():
     torch.testing.assert_close(torch.gather(dense, 1, idx), w)
 
 
-def test_frames_span_the_gaussian_and_follow_the_direction():
+def test_frames_span_the_gaussian_and_follow_its_axis_or_direction():
     t = random_textons()
+    t.cov[0, 0] = torch.eye(2) * 1e-3                      # round: the sprite turns with v
+    t.cov[0, 1] = torch.tensor([[4e-3, 0.0], [0.0, 1e-3]])  # elongated along x
+    t.v[0, 1] = F.normalize(torch.tensor([-1.0, 3.0]), dim=0)  # v mostly across it
     A = frames(t)
     torch.testing.assert_close(A @ A.transpose(-1, -2), REACH ** 2 * t.cov, atol=1e-6, rtol=1e-4)
     first = F.normalize(A[..., 0], dim=-1)
-    torch.testing.assert_close((first * t.v).sum(-1), torch.ones(1, 12), atol=1e-5, rtol=0)
+    torch.testing.assert_close(first[0, 0], t.v[0, 0], atol=1e-5, rtol=0)
+    torch.testing.assert_close(first[0, 1], torch.tensor([-1.0, 0.0]), atol=1e-5, rtol=0)
 
 
 def test_sprite_layout_round_trips_and_rejects_odd_widths():
