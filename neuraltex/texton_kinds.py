@@ -9,7 +9,10 @@ element, and the decoder paints a large blob. So textons are grouped first:
   of the canvas (area of a uniform region with covariance U: 4 pi sqrt(det U));
 - **kinds**: k-means over (log area, f) of the other effective textons, each kind split into
   bins of area (a factor of ``size_ratio``), so a texton never takes the feature of one four
-  times larger or smaller.
+  times larger or smaller, and into bins of shape: elongation (aspect ratio, a factor of 2)
+  and, for elongated Gaussians, the direction of the long axis (four bins of 45 degrees), so
+  a piece of a vertical seam never takes the look of a horizontal one (textons that carry
+  detail sprites, :mod:`neuraltex.texton_detail`, show it along their long axis).
 
 A texton of kind -1 never trades its feature.
 """
@@ -33,11 +36,13 @@ def texton_area(textons: Textons) -> Tensor:
 
 
 def texton_kinds(textons: Textons, *, max_kinds: int = 6, background: float = BACKGROUND_SHARE,
-                 size_ratio: float = 4.0, seed: int = 0, channels: int | None = None) -> Tensor:
+                 size_ratio: float = 4.0, seed: int = 0, channels: int | None = None,
+                 shapes: bool = True) -> Tensor:
     """(B, K) int64: kind >= 0 of each effective texton, -1 for the background layer and for
     textons that do not exist (delta <= 0.5). ``channels``: how many leading channels of f
     the kinds compare (default all; pass the decoder's feature width to leave detail sprites
-    out, :mod:`neuraltex.texton_detail`)."""
+    out, :mod:`neuraltex.texton_detail`); ``shapes``: also split kinds by elongation and
+    direction (:func:`shape_bins`)."""
     from scipy.cluster.vq import kmeans2
 
     kinds = torch.full(textons.p.shape, -1, dtype=torch.int64)
@@ -60,7 +65,21 @@ def texton_kinds(textons: Textons, *, max_kinds: int = 6, background: float = BA
             _, labels = kmeans2(feats, k, minit="++", seed=seed)
         # and never across a factor of ``size_ratio`` in area: a kind is split into size bins
         bins = np.floor(log_area / math.log(size_ratio)).astype(np.int64)
-        labels = np.unique(np.stack([labels, bins - bins.min()], 1), axis=0,
-                           return_inverse=True)[1].reshape(-1)
+        keys = [labels, bins - bins.min()]
+        if shapes:
+            keys += shape_bins(textons.cov[b, idx].detach().cpu().double())
+        labels = np.unique(np.stack(keys, 1), axis=0, return_inverse=True)[1].reshape(-1)
         kinds[b, idx] = torch.from_numpy(np.asarray(labels, np.int64))
     return kinds.to(textons.device)
+
+
+def shape_bins(cov: Tensor, elongated: float = 1.5) -> list[np.ndarray]:
+    """(elongation bin, direction bin) of Gaussians cov (n, 2, 2): floor(log2 aspect) capped
+    at 3, with aspect = sqrt(l1 / l2); and for aspect >= ``elongated`` the long axis's angle
+    in [0, 180) degrees rounded to 0, 45, 90 or 135 (bin 0..3), else -1."""
+    lam, vec = torch.linalg.eigh(cov)
+    aspect = (lam[:, 1] / lam[:, 0].clamp_min(1e-18)).sqrt().numpy()
+    elong = np.minimum(np.floor(np.log2(np.maximum(aspect, 1.0))), 3).astype(np.int64)
+    angle = np.arctan2(vec[:, 1, 1].numpy(), vec[:, 0, 1].numpy()) % math.pi
+    direction = np.round(angle / (math.pi / 4)).astype(np.int64) % 4
+    return [elong, np.where(aspect >= elongated, direction, -1)]

@@ -1,6 +1,8 @@
 """Tuning to one texture (neuraltex.fit), its masks (segmenters), texton kinds, the tuned
 decoder and texture files, on tiny images with the shipped default model."""
 
+import math
+
 import numpy as np
 import pytest
 import torch
@@ -16,6 +18,7 @@ from neuraltex.segmenters import (
     soft_masks,
 )
 from neuraltex.texton_kinds import texton_kinds
+from neuraltex.textons import Textons
 from neuraltex.texture_file import TextureFileError, load_texture, model_id, save_texture
 from neuraltex.tuned_decoder import tuned_model, with_offsets
 
@@ -103,6 +106,29 @@ def test_kinds_keep_the_background_out_and_split_sizes(textons):
     kinds = texton_kinds(t)
     assert kinds[0, 0] == -1
     assert len(set(kinds[0, 1:K // 2].tolist()) & set(kinds[0, K // 2:].tolist())) == 0 or K < 10
+
+
+def test_kinds_split_elongated_textons_by_direction_and_aspect():
+    from neuraltex.texton_kinds import shape_bins
+
+    def cov(aspect, degrees):
+        a = math.radians(degrees)
+        R = torch.tensor([[math.cos(a), -math.sin(a)], [math.sin(a), math.cos(a)]])
+        return R @ torch.diag(torch.tensor([aspect ** 2, 1.0])) @ R.T * 1e-4
+
+    covs = torch.stack([cov(4, 0), cov(4, 178), cov(4, 90), cov(4, 44), cov(1.1, 30),
+                        cov(1.1, 120), cov(2.1, 0)]).double()
+    elong, direction = shape_bins(covs)
+    assert direction[0] == direction[1] != direction[2]  # 0 and 178 degrees: one axis
+    assert direction[3] not in (direction[0], direction[2])
+    assert direction[4] == direction[5] == -1 and elong[4] == elong[5] == 0  # round-ish
+    assert elong[0] == 2 and elong[6] == 1
+    t = Textons(mu=torch.rand(1, 7, 2), cov=covs.float()[None], v=torch.ones(1, 7, 2),
+                f=torch.zeros(1, 7, 3), p=torch.ones(1, 7), delta=torch.ones(1, 7),
+                order=torch.arange(7)[None])
+    kinds = texton_kinds(t, max_kinds=1, size_ratio=1e6)
+    assert kinds[0, 0] == kinds[0, 1] != kinds[0, 2] and kinds[0, 4] == kinds[0, 5]
+    assert len(set(texton_kinds(t, max_kinds=1, size_ratio=1e6, shapes=False)[0].tolist())) == 1
 
 
 def test_reshuffle_trades_features_only_within_kinds(textons):
