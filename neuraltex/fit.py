@@ -35,7 +35,7 @@ from neuraltex.estimation import estimate_textons, painter_order
 from neuraltex.nn_utils import resize
 from neuraltex.segmenters import MAX_SEGMENTS, METHODS, segment_labels, soft_masks
 from neuraltex.splatting import splat
-from neuraltex.texton_detail import SPRITE, DetailSampler, attach
+from neuraltex.texton_detail import DetailSampler, attach, auto_side
 from neuraltex.textons import Textons
 from neuraltex.tuned_decoder import ColourOffsetGenerator
 
@@ -56,7 +56,8 @@ class FitSettings:
     ground: bool = False          # merge the ground between elements into one background
     #                               layer (looks cleaner on spots, costs PSNR on grout)
     eval_every: int = 25          # steps between full-image PSNR readings
-    detail: int = SPRITE          # side of each texton's detail sprite (0: none)
+    detail: int | None = None     # side of each texton's detail sprite (None: by the
+    #                               texton count, texton_detail.auto_side; 0: no sprites)
     seed: int = 0
 
 
@@ -69,6 +70,7 @@ class TextureFit:
     steps: int
     seconds: float
     psnr: float             # of the final full-size reconstruction, dB
+    detail: int             # side of the textons' detail sprites (0: none)
     base_psnr: float        # before tuning (the textons' colours already set), dB
     plain_psnr: float       # after tuning G, before the detail sprites, dB
     detail_seconds: float   # fitting the sprites
@@ -236,11 +238,12 @@ def fit_texture(model, image: Tensor, settings: FitSettings | None = None,
     fitted = current().detach()
     plain = score = _full_psnr(model, G, image, fitted)
     start = time.perf_counter()
-    if cfg.detail:
-        fitted = fit_detail(model, G, image, fitted, cfg.detail)
+    side = auto_side(fitted.num_textons, (H, W)) if cfg.detail is None else cfg.detail
+    if side:
+        fitted = fit_detail(model, G, image, fitted, side)
         score = _full_psnr(model, G, image, fitted)
     tuned = {k: v.detach().clone() for k, v in G.generator.named_parameters()}
-    return TextureFit(fitted, labels, tuned, method, step, seconds, score, base, plain,
+    return TextureFit(fitted, labels, tuned, method, step, seconds, score, side, base, plain,
                       time.perf_counter() - start)
 
 

@@ -35,7 +35,9 @@ from neuraltex.coords import Window, default_window, pixel_grid
 from neuraltex.splatting import top_weights
 from neuraltex.textons import Textons
 
-SPRITE = 16   # sprite side S, texels
+SPRITE = 16   # sprite side S, texels, when not chosen per texture (:func:`auto_side`)
+TEXELS = 2.0  # auto_side: sprite texels per image pixel, over all textons
+MIN_SIDE, MAX_SIDE = 8, 32
 REACH = 2.0   # the sprite covers |u| <= 1 <-> M <= REACH along the frame's axes
 TOP_K = 4     # textons blended per pixel
 FLOOR = 0.25  # least total weight the blend divides by (fades detail where textons fade)
@@ -53,6 +55,14 @@ def sprite_side(channels: int) -> int | None:
     if s < 2 or 3 * s * s != channels:
         raise ValueError(f"{channels} extra feature channels are not an RGB sprite (3 S^2)")
     return s
+
+
+def auto_side(count: int, size: tuple[int, int], texels: float = TEXELS) -> int:
+    """Sprite side for ``count`` textons on an image of ``size`` (H, W): ``texels`` sprite
+    texels per pixel in all (a few large textons get large sprites, many small ones small
+    ones), within [MIN_SIDE, MAX_SIDE]. At 256 x 256 px: 600 KB of float16 sprites."""
+    side = round(math.sqrt(texels * size[0] * size[1] / max(count, 1)))
+    return int(min(max(side, MIN_SIDE), MAX_SIDE))
 
 
 def split(textons: Textons, plain: int) -> tuple[Textons, Tensor | None]:

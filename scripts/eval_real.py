@@ -38,7 +38,6 @@ from neuraltex.fit import FitSettings, fit_texture, psnr  # noqa: E402
 from neuraltex.imageio import load_image  # noqa: E402
 from neuraltex.model import DEFAULT_MODEL, build_model, load_model  # noqa: E402
 from neuraltex.reshuffle import reshuffle  # noqa: E402
-from neuraltex.texton_detail import SPRITE  # noqa: E402
 from neuraltex.texton_kinds import texton_kinds  # noqa: E402
 from neuraltex.texture_file import load_texture, save_texture  # noqa: E402
 from neuraltex.tuned_decoder import tuned_model  # noqa: E402
@@ -167,8 +166,8 @@ def main() -> None:
     ap.add_argument("--seconds", type=float, default=45.0, help="fit budget per image (45)")
     ap.add_argument("--steps", type=int, help="fit step budget instead (reproducible)")
     ap.add_argument("--segmenter", default="auto", help="fit --segmenter (default auto)")
-    ap.add_argument("--detail", type=int, default=SPRITE,
-                    help=f"fit --detail: sprite side (default {SPRITE}; 0: none)")
+    ap.add_argument("--detail", type=int,
+                    help="fit --detail: sprite side (default: auto; 0: none)")
     ap.add_argument("--limit", type=int, help="only the first N real images")
     ap.add_argument("--procedural", type=int, default=0, help="also N procedural images")
     ap.add_argument("--init-compare", type=int, default=0,

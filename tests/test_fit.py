@@ -174,7 +174,11 @@ def test_fit_stops_at_its_time_budget(model):
 
 
 def test_detail_sprites_add_what_the_decoder_misses(model, fitted):
-    assert fitted.textons.feature_dim == model.generator.feature_channels + 1 + 3 * 16 * 16
+    from neuraltex.texton_detail import auto_side
+
+    assert fitted.detail == auto_side(fitted.textons.num_textons, (32, 32)) >= 8
+    plain_width = model.generator.feature_channels + 1  # [f_a, d]
+    assert fitted.textons.feature_dim == plain_width + 3 * fitted.detail ** 2
     assert fitted.psnr > fitted.plain_psnr + 3  # dB
     plain = fit_texture(model, discs(32), FitSettings(steps=40, seconds=None, detail=0,
                                                       segmenter="felzenszwalb", crop=32))
@@ -194,7 +198,7 @@ def test_texture_file_round_trip(tmp_path, model, fitted):
     assert 0 < size < 2 * 2**20
     tex = load_texture(path, model)
     plain = model.generator.feature_channels + 1  # [f_a, d]; detail sprites after
-    assert tex.textons.feature_dim == plain + 3 * 16 * 16  # the default 16 px sprites
+    assert tex.textons.feature_dim == plain + 3 * fitted.detail ** 2
     torch.testing.assert_close(tex.textons.f[..., :plain], fitted.textons.f[..., :plain])
     torch.testing.assert_close(tex.textons.f, fitted.textons.f, atol=2e-3, rtol=0)  # float16
     assert (tex.labels == fitted.labels).all()

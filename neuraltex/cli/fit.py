@@ -48,12 +48,13 @@ def cmd_fit(args: argparse.Namespace) -> int:
     header = {"source": source, "size": list(image.shape[-2:]), "segmenter": fit.segmenter,
               "fit": {"steps": fit.steps, "seconds": round(fit.seconds, 2),
                       "psnr": round(fit.psnr, 3), "base_psnr": round(fit.base_psnr, 3),
-                      "plain_psnr": round(fit.plain_psnr, 3), "detail": args.detail}}
+                      "plain_psnr": round(fit.plain_psnr, 3), "detail": fit.detail}}
     size = save_texture(args.output, model, fit.textons, fit.labels, fit.generator, header)
     print(f"{fit.segmenter} segments -> {fit.textons.num_textons} textons; tuned "
           f"{fit.steps} steps in {fit.seconds:.1f} s: PSNR {fit.base_psnr:.2f} -> "
-          f"{fit.plain_psnr:.2f} dB" + (f"; detail sprites ({fit.detail_seconds:.1f} s) -> "
-                                        f"{fit.psnr:.2f} dB" if args.detail else ""))
+          f"{fit.plain_psnr:.2f} dB" + (f"; {fit.detail} px detail sprites "
+                                        f"({fit.detail_seconds:.1f} s) -> {fit.psnr:.2f} dB"
+                                        if fit.detail else ""))
     print(f"wrote {args.output} ({size / 1024:.0f} KB)")
     if args.preview:
         from neuraltex.tuned_decoder import tuned_model
@@ -67,6 +68,16 @@ def cmd_fit(args: argparse.Namespace) -> int:
 DEFAULT_SECONDS = 45.0
 
 
+def _detail_side(text: str) -> int | None:
+    """--detail: 'auto' (None) or a whole number (checked by _check)."""
+    if text == "auto":
+        return None
+    try:
+        return int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not 'auto' or an integer: {text!r}") from None
+
+
 def _check(args: argparse.Namespace) -> None:
     if args.seconds is not None and not 0 < args.seconds < 1e6:
         raise InputError(f"--seconds must be a positive number, got {args.seconds}")
@@ -78,15 +89,15 @@ def _check(args: argparse.Namespace) -> None:
         raise InputError(f"--threads must lie in 1..256, got {args.threads}")
     if not 2 <= args.max_textons <= 4096:
         raise InputError(f"--max-textons must lie in 2..4096, got {args.max_textons}")
-    if args.detail != 0 and not 2 <= args.detail <= MAX_SPRITE:
-        raise InputError(f"--detail must be 0 or lie in 2..{MAX_SPRITE}, got {args.detail}")
+    if args.detail not in (None, 0) and not 2 <= args.detail <= MAX_SPRITE:
+        raise InputError(f"--detail must be auto, 0 or lie in 2..{MAX_SPRITE}, got {args.detail}")
 
 
 def add_commands(sub) -> None:
     """Register fit."""
     from neuraltex.fit import SEGMENTERS
     from neuraltex.segmenters import MAX_SEGMENTS
-    from neuraltex.texton_detail import SPRITE
+    from neuraltex.texton_detail import MAX_SIDE, MIN_SIDE
 
     p = sub.add_parser("fit", help="tune the model to one texture -> texture file (.ntex)",
                        description=cmd_fit.__doc__)
@@ -107,9 +118,10 @@ def add_commands(sub) -> None:
                    help="fit at this short side; larger images are downscaled (default 256)")
     p.add_argument("--max-textons", type=int, default=MAX_SEGMENTS,
                    help=f"at most this many textons (default {MAX_SEGMENTS})")
-    p.add_argument("--detail", type=int, default=SPRITE,
-                   help=f"side of each texton's detail sprite, texels: the fine detail G misses, "
-                   f"moving with the texton in every edit (default {SPRITE}; 0: none)")
+    p.add_argument("--detail", type=_detail_side, default=None,
+                   help="side of each texton's detail sprite, texels: the fine detail G misses, "
+                   "moving with the texton in every edit; 'auto' (default): about 2 texels per "
+                   f"pixel over all textons, {MIN_SIDE}..{MAX_SIDE}; 0: no sprites")
     p.add_argument("--preview", type=Path,
                    help="also write input | tuned reconstruction side by side (.png/.jpg/.webp)")
     p.add_argument("--checkpoint", help="base model .safetensors (default: the shipped model)")
