@@ -12,8 +12,8 @@ from pathlib import Path
 from cvt import cli_curves
 from cvt.baselines import METHODS
 from neuraltex import __version__
-from neuraltex.errors import InputError, cli_entry, dispatch
-from neuraltex.fileio import atomic_path, write_text_atomic
+from neuraltex.errors import InputError, cli_entry, dispatch, one_line
+from neuraltex.fileio import write_bytes_atomic, write_text_atomic
 
 MAX_SIDE_RATIO = 20.0  # output side / exemplar side
 MAX_FINE_SAMPLES = 200_000  # rough cap on finest-level output samples
@@ -243,14 +243,16 @@ def _from_image(args):
     return image
 
 
-def render_png(svg_path: Path, png_path: Path, background: str = "white") -> None:
-    """Rasterize an SVG file with resvg (no network, no system fonts needed)."""
-    import resvg_py
+def render_png(svg_path: Path, png_path: Path) -> None:
+    """Rasterize an SVG file written by this command (cvt.raster: external references never
+    followed, bounded size)."""
+    from cvt.raster import png_bytes
 
-    data = resvg_py.svg_to_bytes(svg_path=str(svg_path), background=background,
-                                 skip_system_fonts=True)
-    with atomic_path(png_path) as tmp:
-        tmp.write_bytes(bytes(data))
+    try:
+        data = png_bytes(svg_path.read_text(encoding="utf-8"))
+    except ValueError as exc:
+        raise InputError(f"cannot render the preview {png_path}: {one_line(exc)}") from None
+    write_bytes_atomic(png_path, data)
 
 
 def cmd_inspect(args) -> int:

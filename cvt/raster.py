@@ -1,24 +1,70 @@
 """Pixels of vector patterns: whole-document renders (resvg) and per-element coverage masks
-(PIL polygons), both for the quantitative metrics."""
+(PIL polygons), both for the quantitative metrics and the previews.
+
+Every render goes through :func:`png_bytes`: external references are stripped first
+(cvt.references; resvg would read local files named by ``<image href>``), relative links resolve
+in an empty folder, and the picture's size is bounded.
+"""
 
 from __future__ import annotations
 
 import io
+import math
+import re
+import tempfile
 from dataclasses import dataclass
 
 import numpy as np
 from PIL import Image, ImageDraw
 
+from cvt.references import safe_svg_text
 from cvt.svg import Element
+
+MAX_RENDER_SIDE = 4096  # longest side of a render, px (previews, metrics)
+MIN_RENDER_SIDE = 16  # documents smaller than this (e.g. a 1e-6 viewBox) are scaled up
+
+
+def png_bytes(text: str, width: int | None = None, background: str = "white") -> bytes:
+    """PNG of SVG text, ``width`` px wide (default: the document's own size, scaled into
+    [MIN_RENDER_SIDE, MAX_RENDER_SIDE] on the longest side). ValueError when it cannot render."""
+    import resvg_py
+
+    text = safe_svg_text(text)
+    if width is None:
+        width = _bounded_width(text)
+    with tempfile.TemporaryDirectory() as empty:  # relative links find nothing
+        png = resvg_py.svg_to_bytes(svg_string=text, background=background, width=width,
+                                    skip_system_fonts=True, resources_dir=empty)
+    return bytes(png)
+
+
+def _bounded_width(text: str) -> int | None:
+    """Render width bringing the document's pixel size into the side bounds, or None to
+    keep it (it is inside them, or cannot be read here)."""
+    import svgelements as se
+
+    head = text[: text.find(">", text.find("<svg")) + 1]
+    w, h = (re.search(rf'\s{k}="([^"]+)"', head) for k in ("width", "height"))
+    try:
+        w, h = se.Length(w.group(1)).value(ppi=96), se.Length(h.group(1)).value(ppi=96)
+    except (AttributeError, ValueError, TypeError):
+        return None
+    if not (isinstance(w, float | int) and isinstance(h, float | int)) or min(w, h) <= 0:
+        return None
+    longest = max(w, h)
+    if not math.isfinite(longest):
+        return None
+    if MIN_RENDER_SIDE <= longest <= MAX_RENDER_SIDE:
+        return None
+    side = MAX_RENDER_SIDE if longest > MAX_RENDER_SIDE else MIN_RENDER_SIDE
+    return max(1, round(w * side / longest))
 
 
 def render_svg(text: str) -> np.ndarray:
-    """RGB render of SVG text on white, at the document's pixel size. Shape: -> (H, W, 3)
-    float in [0, 1]."""
-    import resvg_py
-
-    png = resvg_py.svg_to_bytes(svg_string=text, background="white", skip_system_fonts=True)
-    return np.asarray(Image.open(io.BytesIO(bytes(png))).convert("RGB"), dtype=np.float32) / 255
+    """RGB render of SVG text on white, at the document's pixel size (bounded, see
+    :func:`png_bytes`). Shape: -> (H, W, 3) float in [0, 1]."""
+    png = png_bytes(text)
+    return np.asarray(Image.open(io.BytesIO(png)).convert("RGB"), dtype=np.float32) / 255
 
 
 @dataclass

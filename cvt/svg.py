@@ -3,8 +3,10 @@
 An element is one top-level drawable node of the document (a ``<g>`` group counts as one
 element). Its geometry is read with svgelements (``<use>`` expanded, transforms applied) in
 the document's user units (the viewBox space); its original XML is kept verbatim so the output
-reproduces it exactly, only wrapped in a ``translate``. Untrusted input is parsed defensively:
-no DTD (hence no entity expansion), no external fetches, bounded sizes.
+reproduces it exactly, only wrapped in a ``translate``. Untrusted input is parsed defensively
+(cvt.xml_input): no DTD (hence no entity expansion), external references removed
+(cvt.references), ``<use>`` cycles and expansion bombs refused (cvt.use_expansion), sizes
+bounded (cvt.limits); geometry that is not finite or lies absurdly far from the canvas is dropped.
 """
 
 from __future__ import annotations
@@ -21,14 +23,15 @@ import svgelements as se
 
 from cvt.background import covers, split_background
 from cvt.elements import element_nodes, open_layers
+from cvt.limits import DEFAULT, FAR, SvgLimits
+from cvt.references import strip_external
+from cvt.use_expansion import expanded_size
+from cvt.xml_input import read_xml
 from neuraltex.errors import InputError
 
 SVG_NS = "http://www.w3.org/2000/svg"
 XLINK_NS = "http://www.w3.org/1999/xlink"
-MAX_BYTES = 10_000_000
-MAX_NODES = 200_000
-MAX_ELEMENTS = 5_000
-MAX_EXTENT = 1e7
+MAX_EXTENT = 1e7  # viewBox numbers (user units)
 
 # Non-rendered nodes that may be referenced by elements; carried over into the output <defs>.
 _DEF_TAGS = {
@@ -94,6 +97,7 @@ class Exemplar:
     # background, never arranged. Its elements keep their document order.
     background: list[Element] = field(default_factory=list)
     note: str = ""  # what the parser decided (element mode, background), one line
+    warnings: list[str] = field(default_factory=list)  # what was ignored (external links...)
 
     @property
     def size(self) -> float:
@@ -105,35 +109,6 @@ def _local(tag: str) -> str:
     return tag.rsplit("}", 1)[-1].rsplit(":", 1)[-1]
 
 
-def _check_safe(data: bytes) -> None:
-    if len(data) > MAX_BYTES:
-        raise InputError(f"SVG is too large ({len(data)} bytes > {MAX_BYTES})")
-    head = data.upper()
-    if b"<!DOCTYPE" in head or b"<!ENTITY" in head:
-        raise InputError("SVG with DOCTYPE/ENTITY declarations is not accepted (entity expansion)")
-
-
-def _parse_xml(data: bytes) -> tuple[ET.Element, dict[str, str]]:
-    namespaces: dict[str, str] = {}
-    try:
-        events = ET.iterparse(io.BytesIO(data), events=("start-ns", "end"))
-        root = None
-        count = 0
-        for ev, item in events:
-            if ev == "start-ns":
-                namespaces.setdefault(item[0], item[1])
-            else:
-                count += 1
-                root = item
-                if count > MAX_NODES:
-                    raise InputError(f"SVG has more than {MAX_NODES} nodes")
-    except ET.ParseError as exc:
-        raise InputError(f"malformed SVG/XML: {exc}") from None
-    if root is None or _local(root.tag) != "svg":
-        raise InputError("not an SVG document (root element is not <svg>)")
-    return root, namespaces
-
-
 def _length(value: str | None) -> tuple[float, str] | None:
     if value is None:
         return None
@@ -143,7 +118,8 @@ def _length(value: str | None) -> tuple[float, str] | None:
     return float(m.group(1)), m.group(2)
 
 
-def _viewbox(root: ET.Element) -> tuple[tuple[float, float, float, float], tuple[float, str]]:
+def _viewbox(root: ET.Element, limits: SvgLimits
+             ) -> tuple[tuple[float, float, float, float], tuple[float, str]]:
     w, h = _length(root.get("width")), _length(root.get("height"))
     vb = root.get("viewBox")
     if vb is not None:
@@ -159,6 +135,7 @@ def _viewbox(root: ET.Element) -> tuple[tuple[float, float, float, float], tuple
         raise InputError("SVG needs a viewBox or numeric width and height")
     if not all(math.isfinite(v) and abs(v) < MAX_EXTENT for v in box) or box[2] <= 0 or box[3] <= 0:
         raise InputError(f"absurd SVG size (viewBox {box})")
+    limits.check(max(box[2] / box[3], box[3] / box[2]), "max_aspect", "SVG viewBox aspect ratio")
     unit = (1.0, "")
     if w is not None and w[1] != "%" and w[0] > 0:
         unit = (w[0] / box[2], w[1])
@@ -189,7 +166,37 @@ def _ring_points(sub: se.Path) -> tuple[np.ndarray, bool]:
     return ring, closed
 
 
-def _shapes_of(doc: bytes) -> list[Shape]:
+@dataclass
+class _Reader:
+    """What reading elements may still cost and what it dropped: flattened points are counted
+    as they are made (reading stops when one element has more than ``--max-points``, or all
+    reads together 4x that: auto mode reads some nodes twice) and shapes out of ``bounds``
+    (x0, y0, x1, y1) are dropped."""
+
+    limits: SvgLimits
+    bounds: tuple[float, float, float, float]
+    far: float  # stroke widths above this are absurd
+    points: int = 0
+    element_points: int = 0  # of the element being read
+    dropped: int = 0
+
+    def spend(self, n: int) -> None:
+        self.points += n
+        self.element_points += n
+        self.limits.check(self.element_points, "max_points", "flattened outline points")
+        if self.points > 4 * self.limits.max_points:
+            self.limits.check(self.points, "max_points", "flattened outline points")
+
+    def fits(self, rings: list[np.ndarray], stroke_width: float) -> bool:
+        x0, y0, x1, y1 = self.bounds
+        ok = stroke_width <= self.far and all(
+            np.isfinite(r).all() and (r[:, 0] >= x0).all() and (r[:, 0] <= x1).all()
+            and (r[:, 1] >= y0).all() and (r[:, 1] <= y1).all() for r in rings)
+        self.dropped += not ok
+        return ok
+
+
+def _shapes_of(doc: bytes, reader: _Reader) -> list[Shape]:
     """Flattened shapes of a one-element document (geometry via svgelements)."""
     svg = se.SVG.parse(io.BytesIO(doc))
     shapes = []
@@ -206,22 +213,27 @@ def _shapes_of(doc: bytes) -> list[Shape]:
         path = abs(se.Path(e))  # bake any transform svgelements kept (e.g. rotated rounded rect)
         for sub in path.as_subpaths():
             ring, c = _ring_points(se.Path(sub))
+            reader.spend(len(ring))
             if len(ring) >= 1 and np.isfinite(ring).all():
                 rings.append(ring)
                 closed.append(c)
-        extent = max((float(np.ptp(r, axis=0).max()) for r in rings), default=0.0)
-        if rings and (extent > 0 or stroked):
-            sw = float(getattr(e, "implicit_stroke_width", None) or e.stroke_width or 1.0)
-            sw = sw if stroked else 0.0
+        sw = float(getattr(e, "implicit_stroke_width", None) or e.stroke_width or 1.0)
+        sw = sw if stroked else 0.0
+        if not rings or not reader.fits(rings, sw):
+            continue
+        extent = max(float(np.ptp(r, axis=0).max()) for r in rings)
+        if extent > 0 or stroked:
             evenodd = e.values.get("fill-rule", "nonzero") == "evenodd"
             color = e.stroke.hexrgb if stroked else None
             shapes.append(Shape(rings, closed, filled, sw, evenodd, color))
     return shapes
 
 
-def _mini_doc(root: ET.Element, hidden: list[ET.Element], node: ET.Element) -> bytes:
-    """A document with one visible node; everything it may reference sits in <defs>."""
-    mini = ET.Element(f"{{{SVG_NS}}}svg", {"width": "100000", "height": "100000"})
+def _mini_doc(root: ET.Element, hidden: list[ET.Element], node: ET.Element, box) -> bytes:
+    """A document with one visible node; everything it may reference sits in <defs>. Its
+    viewport is the viewBox's size (percentages resolve against it), in user units."""
+    size = {"width": f"{box[2]!r}", "height": f"{box[3]!r}"}
+    mini = ET.Element(f"{{{SVG_NS}}}svg", size)
     for k, v in root.attrib.items():
         if _local(k) not in _ROOT_GEOMETRY_ATTRS:
             mini.set(k, v)
@@ -231,24 +243,20 @@ def _mini_doc(root: ET.Element, hidden: list[ET.Element], node: ET.Element) -> b
     return ET.tostring(mini)
 
 
-def parse_svg(data: bytes, elements: str = "groups") -> Exemplar:
+def parse_svg(data: bytes, elements: str = "groups", limits: SvgLimits = DEFAULT
+              ) -> Exemplar:
     """Parse untrusted SVG bytes into an :class:`Exemplar` (raises InputError on bad input).
 
     ``elements`` says which nodes are elements (cvt.elements: "auto", "shapes", "groups"; the
     default "groups" is the file's top-level nodes). Background content (cvt.background) is
-    split off into ``Exemplar.background``."""
-    _check_safe(data)
-    root, namespaces = _parse_xml(data)
-    for prefix, uri in namespaces.items():  # keep the file's prefixes (inkscape:, sodipodi:)
-        if prefix and not re.fullmatch(r"ns\d+", prefix) and uri not in (SVG_NS, XLINK_NS):
-            try:
-                ET.register_namespace(prefix, uri)
-            except ValueError:
-                pass
-    ET.register_namespace("", SVG_NS)
-    ET.register_namespace("xlink", XLINK_NS)
-    box, unit = _viewbox(root)
-    defs, candidates, unsupported = [], [], 0
+    split off into ``Exemplar.background``. ``limits`` bounds the work (cvt.limits)."""
+    root, namespaces = read_xml(data, limits)
+    if root is None or _local(root.tag) != "svg":
+        raise InputError("not an SVG document (root element is not <svg>)")
+    _register(namespaces)
+    external = strip_external(root)
+    box, unit = _viewbox(root, limits)
+    defs, tops, unsupported = [], [], 0
     for child in root:
         if not isinstance(child.tag, str):
             continue
@@ -258,22 +266,12 @@ def parse_svg(data: bytes, elements: str = "groups") -> Exemplar:
         elif tag in _UNSUPPORTED_TAGS:
             unsupported += 1
         elif tag not in _SKIP_TAGS and not _hidden(child):
-            candidates.append(child)
-    tops = candidates
+            tops.append(child)
     candidates, note = element_nodes(tops, elements, _drawable)
-    if len(candidates) > MAX_ELEMENTS:
-        raise InputError(f"SVG has more than {MAX_ELEMENTS} elements")
+    limits.check(len(candidates), "max_elements", "SVG elements")
     defs = defs + _nested_defs(tops)
     by_id = _ids(defs + tops)
-    styles = [n for d in defs for n in d.iter() if _local(n.tag) == "style"]
-
-    def read(node: ET.Element) -> list[Shape]:
-        hidden = styles + [by_id[i] for i in _reference_closure(node, by_id)]
-        try:
-            return _shapes_of(_mini_doc(root, hidden, node))
-        except (ValueError, TypeError, IndexError, AttributeError, ZeroDivisionError) as exc:
-            raise InputError(f"cannot read element <{_local(node.tag)}>: {exc}") from None
-
+    read, reader, skipped = _element_reader(root, defs, by_id, box, limits)
     pairs = [(node, read(node)) for node in candidates]
     if elements == "auto":  # a group spanning the canvas is a layer of the file, not a motif
         pairs, opened = open_layers(pairs, lambda sh: covers(_box(sh), box), read, _drawable)
@@ -282,13 +280,79 @@ def parse_svg(data: bytes, elements: str = "groups") -> Exemplar:
     if not elements:
         if unsupported:
             raise InputError("SVG has only text or raster <image> content; nothing to synthesize")
-        raise InputError("SVG has no drawable elements")
+        raise InputError("SVG has no drawable elements" + (f" ({skipped[0]})" if skipped else ""))
+    limits.check(sum(len(r) for e in elements for s in e.shapes for r in s.rings), "max_points",
+                 "flattened outline points")
     root_attrs = {k: v for k, v in root.attrib.items() if _local(k) not in _ROOT_GEOMETRY_ATTRS}
     # Referenced top-level elements must stay resolvable in the output: keep them as defs too.
     used = set().union(*(_refs(e.node) for e in elements)) if elements else set()
     referenced = [c for c in tops if c.get("id") in used]
-    return split_background(Exemplar(elements, box, root_attrs, defs + referenced, unit,
-                                     note=note))
+    warnings = _warnings(external, reader.dropped, skipped)
+    ex = split_background(Exemplar(elements, box, root_attrs, defs + referenced, unit,
+                                   note=note, warnings=warnings))
+    _check_on_canvas(ex)
+    return ex
+
+
+def _register(namespaces: dict[str, str]) -> None:
+    for prefix, uri in namespaces.items():  # keep the file's prefixes (inkscape:, sodipodi:)
+        if prefix and not re.fullmatch(r"ns\d+", prefix) and uri not in (SVG_NS, XLINK_NS):
+            try:
+                ET.register_namespace(prefix, uri)
+            except ValueError:
+                pass
+    ET.register_namespace("", SVG_NS)
+    ET.register_namespace("xlink", XLINK_NS)
+
+
+def _element_reader(root, defs, by_id, box, limits: SvgLimits):
+    """``read(node) -> shapes`` for element nodes (an element that cannot be read has no
+    shapes; why goes into the returned ``skipped`` list), and its :class:`_Reader`."""
+    styles = [n for d in defs for n in d.iter() if _local(n.tag) == "style"]
+    far = FAR * (box[2] + box[3]) / 2
+    reader = _Reader(limits, (box[0] - far, box[1] - far, box[0] + box[2] + far,
+                              box[1] + box[3] + far), far)
+    skipped: list[str] = []
+    expanded = [0]
+
+    def read(node: ET.Element) -> list[Shape]:
+        expanded[0] += expanded_size(node, by_id, limits)
+        limits.check(expanded[0], "max_nodes", "SVG nodes after <use> expansion")
+        hidden = styles + [by_id[i] for i in _reference_closure(node, by_id)]
+        reader.element_points = 0
+        try:
+            return _shapes_of(_mini_doc(root, hidden, node, box), reader)
+        except (ValueError, TypeError, IndexError, AttributeError, ZeroDivisionError,
+                OverflowError) as exc:
+            if isinstance(exc, InputError):
+                raise
+            skipped.append(f"<{_local(node.tag)}>: {str(exc)[:80]}")
+            return []
+
+    return read, reader, skipped
+
+
+def _warnings(external: int, dropped: int, skipped: list[str]) -> list[str]:
+    out = []
+    if external:
+        out.append(f"ignored {external} external reference(s) (<image>/<use> href, CSS url, "
+                   "@import): never read")
+    if dropped:
+        out.append(f"dropped {dropped} shape(s) with non-finite or absurdly far coordinates or "
+                   "stroke width")
+    if skipped:
+        out.append(f"skipped {len(skipped)} element(s) that cannot be read ({skipped[0]})")
+    return out
+
+
+def _check_on_canvas(ex: Exemplar) -> None:
+    """InputError when every element lies outside the viewBox: nothing on the canvas."""
+    x, y, w, h = ex.viewbox
+    for e in ex.elements + ex.background:
+        b = e.bbox
+        if b[0] < x + w and b[2] > x and b[1] < y + h and b[3] > y:
+            return
+    raise InputError(f"no element is on the canvas (viewBox {x:g} {y:g} {w:g} {h:g})")
 
 
 def _drawable(node: ET.Element) -> bool:
@@ -346,13 +410,17 @@ def _reference_closure(node: ET.Element, by_id: dict[str, ET.Element]) -> list[s
     return sorted(seen)
 
 
-def load_svg(path, elements: str = "groups") -> Exemplar:
+def read_file(path, limits: SvgLimits) -> bytes:
+    """The bytes of the SVG file at ``path`` (at most ``limits.max_bytes`` + 1 of them)."""
     try:
         with open(path, "rb") as f:
-            data = f.read(MAX_BYTES + 1)
-    except OSError as exc:
-        raise InputError(f"cannot read {path}: {exc.strerror or exc}") from None
-    return parse_svg(data, elements)
+            return f.read(limits.max_bytes + 1)
+    except (OSError, ValueError) as exc:  # ValueError: a NUL byte in the name
+        raise InputError(f"cannot read {path}: {getattr(exc, 'strerror', None) or exc}") from None
+
+
+def load_svg(path, elements: str = "groups", limits: SvgLimits = DEFAULT) -> Exemplar:
+    return parse_svg(read_file(path, limits), elements, limits)
 
 
 def _renamed_copy(node: ET.Element, suffix: str) -> ET.Element:
