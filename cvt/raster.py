@@ -31,33 +31,43 @@ def png_bytes(text: str, width: int | None = None, background: str = "white") ->
 
     text = safe_svg_text(text)
     if width is None:
-        width = _bounded_width(text)
+        text, width = _pixel_size(text)
     with tempfile.TemporaryDirectory() as empty:  # relative links find nothing
         png = resvg_py.svg_to_bytes(svg_string=text, background=background, width=width,
                                     skip_system_fonts=True, resources_dir=empty)
     return bytes(png)
 
 
-def _bounded_width(text: str) -> int | None:
-    """Render width bringing the document's pixel size into the side bounds, or None to
-    keep it (it is inside them, or cannot be read here)."""
+_SIZE = re.compile(r'(\s(width|height)=")([^"]+)(")')
+
+
+def _pixel_size(text: str) -> tuple[str, int | None]:
+    """The text with its root width/height in px (resvg reads no mm, cm, in...), and a render
+    width bringing the longest side into the bounds, or None to keep the document's size."""
     import svgelements as se
 
-    head = text[: text.find(">", text.find("<svg")) + 1]
-    w, h = (re.search(rf'\s{k}="([^"]+)"', head) for k in ("width", "height"))
-    try:
-        w, h = se.Length(w.group(1)).value(ppi=96), se.Length(h.group(1)).value(ppi=96)
-    except (AttributeError, ValueError, TypeError):
-        return None
-    if not (isinstance(w, float | int) and isinstance(h, float | int)) or min(w, h) <= 0:
-        return None
-    longest = max(w, h)
-    if not math.isfinite(longest):
-        return None
+    start = text.find("<svg")
+    end = text.find(">", start) + 1
+    if start < 0 or end <= 0:
+        return text, None
+    px = {}
+    for m in _SIZE.finditer(text, start, end):
+        try:
+            v = se.Length(m.group(3)).value(ppi=96)
+        except (ValueError, TypeError):
+            return text, None
+        if not isinstance(v, float | int) or not math.isfinite(v) or v <= 0:
+            return text, None
+        px[m.group(2)] = float(v)
+    if len(px) != 2:
+        return text, None
+    head = _SIZE.sub(lambda m: f"{m.group(1)}{px[m.group(2)]:.6g}{m.group(4)}", text[start:end])
+    text = text[:start] + head + text[end:]
+    longest = max(px.values())
     if MIN_RENDER_SIDE <= longest <= MAX_RENDER_SIDE:
-        return None
+        return text, None
     side = MAX_RENDER_SIDE if longest > MAX_RENDER_SIDE else MIN_RENDER_SIDE
-    return max(1, round(w * side / longest))
+    return text, max(1, round(px["width"] * side / longest))
 
 
 def render_svg(text: str) -> np.ndarray:
