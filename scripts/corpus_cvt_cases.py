@@ -13,6 +13,7 @@ CURVE = f"{SVG}/curve.svg"
 VALID = f"{SVG}/valid.svg"
 FAST = ("--levels", "1", "--iterations", "2")
 DOMAIN_OK = {"element_1e4x_alone.svg"}  # one huge filled circle: a fine domain, no exemplar
+SLOW = {"use_chain_1e4.svg", "huge_path.svg", "huge_curve_path.svg"}  # 3-9 s: never in CI
 
 
 def cvt_command(name: str, src: str, extra: tuple = ()) -> list[str]:
@@ -42,6 +43,7 @@ def svg_cases(files: dict[str, str], references: set[str]) -> list[dict]:
     for name, expect in files.items():
         src = f"{SVG}/{name}"
         more = {"no_red": True} if name in references else {}
+        more.update({"slow": True} if name in SLOW else {})
         for cmd in ("inspect", "synthesize"):
             cases.append(_case(f"svg/{name}/{cmd}", expect, cvt_command(cmd, src), **more))
         if expect == "error" or name in references:

@@ -7,7 +7,8 @@ exactly one ``<prog>: error:`` line, no traceback, no file left in the output fo
 references shows the corpus's pure red secret.png, and no command opens a file outside the
 corpus, its output folders and the Python installation.
 
-About one case in six runs by default; ``pytest -m slow tests/test_corpus.py`` runs them all.
+About one case in six runs by default (never those marked "slow" in cases.json);
+``pytest -m slow tests/test_corpus.py`` runs them all.
 """
 
 from __future__ import annotations
@@ -23,9 +24,8 @@ import tempfile
 import time
 from pathlib import Path
 
-import pytest
-
 import numpy as np
+import pytest
 from PIL import Image
 
 from cvt.cli import main as cvt_main
@@ -42,7 +42,7 @@ _peaks: dict[str, float] = {}
 
 def _params():
     for i, case in enumerate(CASES):
-        marks = () if i % 6 == 0 else (pytest.mark.slow,)
+        marks = () if i % 6 == 0 and not case.get("slow") else (pytest.mark.slow,)
         yield pytest.param(case, id=case["id"], marks=marks)
 
 
@@ -147,9 +147,12 @@ def test_peak_memory_under_cap():
 
 
 def test_corpus_is_large_and_covers_every_subcommand():
+    from cvt.cli import build_parser as cvt_parser
     from neuraltex.cli import build_parser
 
-    commands = {c["argv"][0] for c in CASES}
-    sub = next(a for a in build_parser()._actions if a.dest == "command")
+    for prog, parser in (("neuraltex", build_parser()), ("cvt", cvt_parser())):
+        commands = {c["argv"][0] for c in CASES if c.get("prog", "neuraltex") == prog}
+        sub = next(a for a in parser._actions if a.dest == "command")
+        assert set(sub.choices) <= commands, prog
     assert len(CASES) >= 300
-    assert set(sub.choices) <= commands
+    assert sum(c.get("prog") == "cvt" for c in CASES) >= 100
