@@ -233,9 +233,7 @@ def cmd_synthesize(args) -> int:
         from cvt.from_textons import with_backdrop
 
         text = with_backdrop(text, image.backdrop)
-    write_text_atomic(args.output, text)
-    if args.preview:
-        render_png(Path(args.output), Path(args.preview))
+    write_outputs(args, text)
     res = pattern.result
     if debug is not None and res is not None:
         from cvt.debug import draw_energy
@@ -282,16 +280,22 @@ def _from_image(args):
     return image
 
 
-def render_png(svg_path: Path, png_path: Path) -> None:
-    """Rasterize an SVG file written by this command (cvt.raster: external references never
-    followed, bounded size)."""
+def write_outputs(args, text: str) -> None:
+    """Write the output SVG ``text`` and, with ``--preview``, its render (cvt.raster: external
+    references never followed, bounded size). The preview is rendered first, so a failure
+    leaves no output at all."""
     from cvt.raster import png_bytes
 
-    try:
-        data = png_bytes(svg_path.read_text(encoding="utf-8"))
-    except ValueError as exc:
-        raise InputError(f"cannot render the preview {png_path}: {one_line(exc)}") from None
-    write_bytes_atomic(png_path, data)
+    png = None
+    if args.preview:
+        try:
+            png = png_bytes(text)
+        except ValueError as exc:
+            raise InputError(f"cannot render the preview {args.preview}: {one_line(exc)}"
+                             ) from None
+    write_text_atomic(args.output, text)
+    if png is not None:
+        write_bytes_atomic(args.preview, png)
 
 
 def cmd_inspect(args) -> int:

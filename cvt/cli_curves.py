@@ -7,12 +7,10 @@ import argparse
 import math
 import sys
 import time
-from pathlib import Path
 
 from cvt.limits import add_limit_arguments, limits_from
 from neuraltex.cli import args as types
 from neuraltex.errors import InputError
-from neuraltex.fileio import write_text_atomic
 
 KINDS = ("auto", "curves", "elements")
 CURVE_METHODS = {"full": "ours", "random": "random"}  # cvt --method -> cvt.curves method
@@ -70,7 +68,7 @@ def domain_inside(path, limits):
 
 def synthesize_curves(args, exemplar) -> int:
     """``cvt synthesize`` for a curve exemplar (already parsed, ``exemplar``)."""
-    from cvt.cli import _output_size, render_png
+    from cvt.cli import _output_size, write_outputs
     from cvt.curves.baselines import run_curves
     from cvt.curves.reconstruction import curves_svg
     from cvt.curves.sampling import exemplar_graph
@@ -100,9 +98,7 @@ def synthesize_curves(args, exemplar) -> int:
     inside = domain_inside(domain, limits_from(args)) if isinstance(domain, str) else None
     t = time.perf_counter()
     g, _ = run_curves(CURVE_METHODS[args.method], cx, size, cfg, inside)
-    write_text_atomic(args.output, curves_svg(exemplar, cx.element_centers(), g, size))
-    if args.preview:
-        render_png(Path(args.output), Path(args.preview))
+    write_outputs(args, curves_svg(exemplar, cx.element_centers(), g, size))
     print(f"wrote {args.output}: curves, {len(g)} samples, {len(g.edges)} edges "
           f"({time.perf_counter() - t:.1f} s)")
     return 0
@@ -152,7 +148,7 @@ def _region(args, partial, cx):
 def cmd_autocomplete(args) -> int:
     from dataclasses import replace
 
-    from cvt.cli import render_png
+    from cvt.cli import write_outputs
     from cvt.curves.autocomplete import autocomplete
     from cvt.curves.reconstruction import curves_svg
     from cvt.curves.strokes import load_curves
@@ -175,9 +171,7 @@ def cmd_autocomplete(args) -> int:
         drawing = "\n".join(e.markup for e in partial.exemplar.elements)
         cut = text.index('<g id="curves">')
         text = text[:cut] + drawing + "\n" + text[cut:]
-    write_text_atomic(args.output, text)
-    if args.preview:
-        render_png(Path(args.output), Path(args.preview))
+    write_outputs(args, text)
     n_new = len(res.graph) - res.n_fixed
     print(f"wrote {args.output}: {n_new} predicted samples around {res.n_fixed} drawn "
           f"({res.seconds:.2f} s)", file=sys.stdout)
