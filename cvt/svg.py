@@ -155,7 +155,8 @@ def parse_svg(data: bytes, elements: str = "groups", limits: SvgLimits = DEFAULT
     if not elements:
         if unsupported:
             raise InputError("SVG has only text or raster <image> content; nothing to synthesize")
-        raise InputError("SVG has no drawable elements" + (f" ({skipped[0]})" if skipped else ""))
+        why = _warnings(0, reader.dropped, skipped)
+        raise InputError("SVG has no drawable elements" + (f" ({why[0]})" if why else ""))
     limits.check(sum(len(r) for e in elements for s in e.shapes for r in s.rings), "max_points",
                  "flattened outline points")
     root_attrs = {k: v for k, v in root.attrib.items() if _local(k) not in ROOT_GEOMETRY_ATTRS}
