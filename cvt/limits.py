@@ -15,7 +15,7 @@ from neuraltex.errors import InputError
 MAX_BYTES = 10_000_000  # --max-bytes: file size
 MAX_NODES = 200_000  # --max-nodes: XML nodes, and shapes after <use> expansion
 MAX_DEPTH = 100  # --max-depth: nesting of XML nodes and of <use> references
-MAX_ELEMENTS = 1_000  # --max-elements: elements to arrange (synthesis is quadratic in them)
+MAX_ELEMENTS = 500  # --max-elements: elements to arrange (500 random dots at --scale 2: 40 s)
 MAX_POINTS = 150_000  # --max-points: flattened outline points of the whole document
 MAX_ASPECT = 20.0  # --max-aspect: viewBox width / height (either way)
 FAR = 1e4  # geometry farther than this many exemplar sizes from the canvas is dropped
