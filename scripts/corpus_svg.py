@@ -9,6 +9,8 @@ exit code 2). External references are "ok": they are dropped with a warning, nev
 
 from __future__ import annotations
 
+import gzip
+
 import numpy as np
 from PIL import Image
 
@@ -72,6 +74,19 @@ def structure_files() -> dict[str, tuple[str, str | bytes]]:
         "only_text.svg": ("error", _doc('<text x="10" y="50">hello</text>')),
         "only_image.svg": ("error", _doc(f'<image href="{SECRET}" width="100" height="100"/>')),
         "display_none.svg": ("error", _doc(_dots(extra=' display="none"'))),
+        "gradient_href_cycle.svg": ("ok", _doc(
+            '<defs><linearGradient id="a" href="#b"/><linearGradient id="b" xlink:href="#a">'
+            '<stop offset="0" stop-color="red"/></linearGradient></defs>'
+            '<rect width="20" height="20" fill="url(#a)"/>' + _dots())),
+        "pattern_self.svg": ("ok", _doc(
+            '<pattern id="p" width="10" height="10" patternUnits="userSpaceOnUse">'
+            '<rect width="5" height="5" fill="url(#p)"/></pattern>'
+            '<rect width="30" height="30" fill="url(#p)"/>' + _dots())),
+        "clip_self.svg": ("ok", _doc('<clipPath id="c"><rect width="9" height="9" '
+                                     'clip-path="url(#c)"/></clipPath>'
+                                     '<rect width="30" height="30" clip-path="url(#c)"/>'
+                                     + _dots())),
+        "svgz.svg": ("error", gzip.compress(_doc(_dots()).encode(), mtime=0)),
         "ids_clash.svg": ("ok", _doc('<g id="a">' + _dots(3) + '</g><g id="a">' + _dots(3, seed=1)
                                      + "</g>")),
     }
