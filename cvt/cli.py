@@ -50,8 +50,7 @@ def build_parser() -> argparse.ArgumentParser:
                      help="output height in exemplar user units (with --width)")
     syn.add_argument("--scale", type=types.number(0, MAX_SIDE_RATIO, open_lo=True),
                      help=f"output size as a multiple of the exemplar's (at most "
-                     f"{MAX_SIDE_RATIO:g}; the output is also limited to "
-                     f"{MAX_FINE_SAMPLES:,} finest-level samples)")
+                     f"{MAX_SIDE_RATIO:g}; see also --max-samples)")
     syn.add_argument("--seed", type=types.seed, default=0, help="random seed (default 0)")
     syn.add_argument("--levels", type=types.integer(1, 3), default=3,
                      help="hierarchy levels, 1-3 (default 3)")
@@ -77,6 +76,10 @@ def build_parser() -> argparse.ArgumentParser:
                      help="also render the result to this PNG")
     syn.add_argument("--debug-dir", help="write per-iteration sample pictures and energies here")
     syn.add_argument("--quiet", action="store_true", help="no progress bar")
+    syn.add_argument("--max-samples", type=types.integer(1, 10**9), metavar="N",
+                     help=f"largest output, in finest-level samples (default "
+                     f"{MAX_FINE_SAMPLES:,} for element patterns, "
+                     f"{cli_curves.MAX_OUT_SAMPLES:,} for curves)")
     cli_curves.add_curve_arguments(syn)
     add_limit_arguments(syn)
     syn.set_defaults(func=cmd_synthesize)
@@ -202,9 +205,10 @@ def cmd_synthesize(args) -> int:
                           **extra)
     fine = sample_exemplar(ex, cfg.deltas[-1] * ex.size)  # cheap size guard before the work
     est = len(fine) * size[0] * size[1] / (ex.viewbox[2] * ex.viewbox[3])
-    if est > MAX_FINE_SAMPLES:
+    cap = args.max_samples or MAX_FINE_SAMPLES
+    if est > cap:
         raise InputError(f"output too large: about {est:,.0f} finest-level samples "
-                         f"(limit {MAX_FINE_SAMPLES:,})")
+                         f"(limit {cap:,}; raise it with --max-samples)")
     debug = Path(args.debug_dir) if args.debug_dir else None
     bar = tqdm(total=cfg.levels * cfg.iterations, disable=args.quiet, file=sys.stderr,
                unit="it", dynamic_ncols=True)

@@ -91,9 +91,10 @@ def synthesize_curves(args, exemplar) -> int:
                       threads=args.threads)
     fine = len(exemplar_graph(cx, cfg.level(exemplar.size, cfg.levels - 1).delta))
     est = fine * size[0] * size[1] / (exemplar.viewbox[2] * exemplar.viewbox[3])
-    if est > MAX_OUT_SAMPLES:
+    cap = getattr(args, "max_samples", None) or MAX_OUT_SAMPLES
+    if est > cap:
         raise InputError(f"output too large: about {est:,.0f} curve samples "
-                         f"(limit {MAX_OUT_SAMPLES:,})")
+                         f"(limit {cap:,}; raise it with --max-samples)")
     domain = getattr(args, "domain", None)
     inside = domain_inside(domain, limits_from(args)) if isinstance(domain, str) else None
     t = time.perf_counter()

@@ -86,6 +86,7 @@ ARGUMENTS = [
         ("--domain", "{c}/images/rgb.png"), ("--debug-dir", "{file}"), ("--unknown", "1"))],
     ("synthesize", ("--method", "random"), "ok"),
     ("synthesize", ("--max-elements", "3"), "error"),
+    *[("synthesize", ("--max-samples", v), "error") for v in ("10", "0", "1e9")],
     ("inspect", ("--levels", "0"), "error"),
     ("inspect", ("--levels", "9"), "error"),
     ("inspect", ("--no-png",), "ok"),
