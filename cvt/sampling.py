@@ -18,6 +18,7 @@ from cvt.svg import Element, Exemplar, Shape
 DEFAULT_DELTAS = (1 / 20, 1 / 30, 1 / 40)  # sampling distance / exemplar size (sec. 7.3)
 DEFAULT_RADII = (1 / 6, 1 / 8, 1 / 12)  # neighborhood radius / exemplar size (sec. 7.3)
 MAX_ALONG = 200_000  # points along one outline (a longer one is walked in coarser steps)
+MAX_GRID = 1_000_000  # fill-grid points of one element (a larger grid is cut to the region)
 CHUNK = 1 << 22  # points x edges per block of the fill test (~100 MB of temporaries)
 
 
@@ -109,8 +110,8 @@ def _along(ring: np.ndarray, closed: bool, step: float) -> np.ndarray:
 def element_candidates(element: Element, delta: float, rng: np.random.Generator,
                        region=None) -> np.ndarray:
     """Dense candidate points on an element: jittered grid in fills, points along strokes.
-    The grid covers the element's box, cut to ``region`` (x0, y0, x1, y1) when given: the
-    part of a huge element far off the canvas gets no samples.
+    The grid covers the element's box; when that takes more than MAX_GRID points it is cut to
+    ``region`` (x0, y0, x1, y1): the part of a huge element far off the canvas gets no samples.
 
     Shape: -> (M, 2).
     """
@@ -118,7 +119,7 @@ def element_candidates(element: Element, delta: float, rng: np.random.Generator,
     extent = max(min(box[2] - box[0], box[3] - box[1]), 1e-9)
     step = min(delta / 3, extent / 4)
     lo, hi = box[:2], box[2:]
-    if region is not None:
+    if region is not None and np.prod((hi - lo) / step) > MAX_GRID:
         lo, hi = np.maximum(lo, region[:2]), np.minimum(hi, region[2:])
         step = max(step, delta / 3 * 1e-3)  # a thin sliver of a huge element: a finite grid
     out = []
