@@ -237,7 +237,7 @@ def cmd_synthesize(args) -> int:
         from cvt.from_textons import with_backdrop
 
         text = with_backdrop(text, image.backdrop)
-    write_outputs(args, text)
+    write_outputs(args, text, image.svg if image is not None else None)
     res = pattern.result
     if debug is not None and res is not None:
         from cvt.debug import draw_energy
@@ -275,19 +275,17 @@ def _from_image(args):
                              "MODEL.safetensors or --segmenter felzenszwalb")
         checkpoint = DEFAULT_MODEL
     svg = vectorize_image(args.from_image, args.segmenter, checkpoint, max_side=args.max_side)
-    if args.exemplar_out:
-        write_text_atomic(args.exemplar_out, svg)
-    image = image_exemplar(svg)
+    image = image_exemplar(svg)  # --exemplar-out is written with the output (write_outputs)
     if not args.quiet:
         print(f"vectorized {args.from_image}: {len(image.exemplar.elements)} elements",
               file=sys.stderr)
     return image
 
 
-def write_outputs(args, text: str) -> None:
-    """Write the output SVG ``text`` and, with ``--preview``, its render (cvt.raster: external
-    references never followed, bounded size). The preview is rendered first, so a failure
-    leaves no output at all."""
+def write_outputs(args, text: str, exemplar: str | None = None) -> None:
+    """Write the output SVG ``text``, with ``--preview`` its render (cvt.raster: external
+    references never followed, bounded size) and with ``--exemplar-out`` the vectorized
+    ``exemplar``. The preview is rendered first, so a failure leaves no output at all."""
     from cvt.raster import png_bytes
 
     png = None
@@ -300,6 +298,8 @@ def write_outputs(args, text: str) -> None:
     write_text_atomic(args.output, text)
     if png is not None:
         write_bytes_atomic(args.preview, png)
+    if exemplar is not None and getattr(args, "exemplar_out", None):
+        write_text_atomic(args.exemplar_out, exemplar)
 
 
 def cmd_inspect(args) -> int:

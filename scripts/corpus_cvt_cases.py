@@ -120,7 +120,12 @@ OUTPUTS = [
 
 
 def cvt_argument_cases() -> list[dict]:
-    cases = []
+    image = ["synthesize", "--from-image", "{c}/images/gray16.png", "--segmenter", "felzenszwalb",
+             "-o", "{o}/i.svg", "--scale", "1.5", *FAST, "--max-side", "64", "--quiet",
+             "--exemplar-out", "{o}/e.svg"]
+    cases = [_case("cvt-arguments/from-image fails late: no exemplar-out left", "error",
+                   image + ["--max-samples", "1"]),
+             _case("cvt-arguments/from-image with exemplar-out", "ok", image, ci=False)]
     for i, (cmd, extra, expect) in enumerate(ARGUMENTS):
         src = CURVE if cmd == "autocomplete" else VALID
         argv = cvt_command(cmd, src)

@@ -2,7 +2,7 @@
 leaves out (marked ``"ci": false`` in tests/corpus/cases.json: each SVG through every ``cvt``
 command, not just one). Extra arguments go to pytest.
 
-    python scripts/run_corpus.py            # every case, ~1,093
+    python scripts/run_corpus.py            # every case, ~1,095
     python scripts/run_corpus.py -k svg/    # only the SVG cases
 """
 
