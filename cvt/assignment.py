@@ -9,7 +9,7 @@ Laplacian, all in torch.
 Existence (seed 001 sec. 4.3.4): input samples of a matched input neighborhood that no output
 sample matched vote for a missing output sample at the corresponding place; places whose share
 of votes among the overlapping output neighborhoods exceeds 1/2 get a new sample. CVT only adds
-(seed 000 appendix A.2.2); filtering removes later (issue 8).
+(seed 000 appendix A.2.2); the filtering step (cvt.reconstruction) removes surplus samples later.
 """
 
 from __future__ import annotations

@@ -11,43 +11,51 @@ from pathlib import Path
 
 from cvt import cli_curves
 from cvt.baselines import METHODS
+from cvt.limits import add_limit_arguments, limits_from
 from neuraltex import __version__
-from neuraltex.errors import InputError, cli_entry, dispatch
-from neuraltex.fileio import atomic_path, write_text_atomic
+from neuraltex.cli import args as types
+from neuraltex.errors import InputError, OneLineParser, cli_entry, dispatch, one_line
+from neuraltex.fileio import check_writable, write_bytes_atomic, write_text_atomic
 
 MAX_SIDE_RATIO = 20.0  # output side / exemplar side
 MAX_FINE_SAMPLES = 200_000  # rough cap on finest-level output samples
+MAX_WEIGHT = 1e6  # energy weights (--w-f, --w-l, --w-s, --w-a)
+
+
+SYNTHESIZE = """Grow an SVG exemplar (a pattern of discrete elements, or of curves) into a larger
+pattern with the same arrangement: Clustered Vector Textures for elements, Continuous Curve
+Textures for strokes. External references in the SVG (<image href>, CSS url) are ignored, never
+read. Inputs beyond the limits below are refused with one line (raise a limit to go on)."""
+INSPECT = """List an SVG exemplar's elements (after the same parsing as synthesize: groups,
+background, ignored references) and its samples per hierarchy level; draw the finest level's
+samples, coloured by cluster, to a PNG."""
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    parser = OneLineParser(
         prog="cvt",
         description="Clustered Vector Textures: synthesize larger SVG patterns from an exemplar.",
     )
     parser.add_argument("--version", action="version", version=f"cvt {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
-
-    syn = sub.add_parser("synthesize", help="grow an SVG exemplar into a larger pattern")
-    syn.add_argument("exemplar", nargs="?", help="input SVG (or give --from-image)")
-    syn.add_argument("-o", "--output", required=True, help="output SVG")
-    img = syn.add_argument_group("from a raster image (vectorized into texton elements first)")
-    img.add_argument("--from-image", metavar="IMAGE",
-                     help="vectorize IMAGE (neuraltex vectorize) and use it as the exemplar; a "
-                     "texture file (.ntex, neuraltex fit) gives its fitted segments")
-    img.add_argument("--segmenter", default="model", choices=("model", "felzenszwalb"),
-                     help="texton model (default) or the Felzenszwalb baseline")
-    img.add_argument("--checkpoint", help="texton model .safetensors (default: the shipped one)")
-    img.add_argument("--max-side", type=int, default=256,
-                     help="the image is downscaled to this side first (default 256)")
-    img.add_argument("--exemplar-out", help="also write the vectorized exemplar SVG here")
-    img.add_argument("--w-a", type=float,
-                     help="weight of the texton-kind appearance term A(s) (default 1; 0: off)")
-    syn.add_argument("--width", type=float, help="output width in exemplar user units")
-    syn.add_argument("--height", type=float, help="output height in exemplar user units")
-    syn.add_argument("--scale", type=float, help="output size as a multiple of the exemplar's")
-    syn.add_argument("--seed", type=int, default=0)
-    syn.add_argument("--levels", type=int, default=3, help="hierarchy levels (1-3)")
-    syn.add_argument("--iterations", type=int, default=7, help="iterations per level")
+    syn = sub.add_parser("synthesize", help="grow an SVG exemplar into a larger pattern",
+                         description=SYNTHESIZE)
+    syn.add_argument("exemplar", nargs="?", help="input SVG exemplar (or give --from-image)")
+    syn.add_argument("-o", "--output", required=True, type=types.output_file(".svg"),
+                     help="output SVG")
+    _add_image_args(syn)
+    syn.add_argument("--width", type=types.number(0, 1e7, open_lo=True),
+                     help="output width in exemplar user units (with --height)")
+    syn.add_argument("--height", type=types.number(0, 1e7, open_lo=True),
+                     help="output height in exemplar user units (with --width)")
+    syn.add_argument("--scale", type=types.number(0, MAX_SIDE_RATIO, open_lo=True),
+                     help=f"output size as a multiple of the exemplar's (at most "
+                     f"{MAX_SIDE_RATIO:g}; see also --max-samples)")
+    syn.add_argument("--seed", type=types.seed, default=0, help="random seed (default 0)")
+    syn.add_argument("--levels", type=types.integer(1, 3), default=3,
+                     help="hierarchy levels, 1-3 (default 3)")
+    syn.add_argument("--iterations", type=types.integer(1, 100), default=7,
+                     help="iterations per level, 1-100 (default 7)")
     syn.add_argument("--init", choices=("patch", "random", "gaussian"), default="patch",
                      help="first-level output: random input patches (default), random samples, "
                      "or whole elements placed by their Gaussians (centres, covariances)")
@@ -57,25 +65,54 @@ def build_parser() -> argparse.ArgumentParser:
                      "|O|/|I| x |{C_i}| clusters (the paper's baseline); random: random "
                      "non-overlapping elements; no-features / no-link / no-shape: ablations "
                      "w_f = 0 / w_l = 0 / w_s = 0")
-    syn.add_argument("--w-f", type=float, help="shape-context weight in eq. 3 (default 10)")
-    syn.add_argument("--w-l", type=float, help="link-energy weight in eq. 9 (default 1)")
-    syn.add_argument("--w-s", type=float, help="shape-energy weight in eq. 9 (default 4)")
-    syn.add_argument("--threads", type=int, default=1, help="torch CPU threads")
+    weight = types.number(0, MAX_WEIGHT)
+    syn.add_argument("--w-f", type=weight, help="shape-context weight in eq. 3 (default 10)")
+    syn.add_argument("--w-l", type=weight, help="link-energy weight in eq. 9 (default 1)")
+    syn.add_argument("--w-s", type=weight, help="shape-energy weight in eq. 9 (default 4)")
+    syn.add_argument("--threads", type=types.integer(1, 256), default=1,
+                     help="torch CPU threads (default 1)")
     _add_pattern_args(syn)
-    syn.add_argument("--preview", help="also render the result to this PNG")
+    syn.add_argument("--preview", type=types.output_file(".png"),
+                     help="also render the result to this PNG")
     syn.add_argument("--debug-dir", help="write per-iteration sample pictures and energies here")
     syn.add_argument("--quiet", action="store_true", help="no progress bar")
+    syn.add_argument("--max-samples", type=types.integer(1, 10**9), metavar="N",
+                     help=f"largest output, in finest-level samples (default "
+                     f"{MAX_FINE_SAMPLES:,} for element patterns, "
+                     f"{cli_curves.MAX_OUT_SAMPLES:,} for curves)")
     cli_curves.add_curve_arguments(syn)
+    add_limit_arguments(syn)
     syn.set_defaults(func=cmd_synthesize)
 
-    ins = sub.add_parser("inspect", help="list an exemplar's elements and samples per level")
-    ins.add_argument("exemplar", help="input SVG")
-    ins.add_argument("--png", help="PNG of the sampled clusters (default: <stem>.samples.png)")
+    ins = sub.add_parser("inspect", help="list an exemplar's elements and samples per level",
+                         description=INSPECT)
+    ins.add_argument("exemplar", help="input SVG exemplar")
+    ins.add_argument("--png", type=types.output_file(".png"),
+                     help="PNG of the sampled clusters (default: <stem>.samples.png)")
     ins.add_argument("--no-png", action="store_true", help="do not write the PNG")
-    ins.add_argument("--levels", type=int, default=3)
+    ins.add_argument("--levels", type=types.integer(1, 3), default=3,
+                     help="hierarchy levels, 1-3 (default 3)")
+    add_limit_arguments(ins)
     ins.set_defaults(func=cmd_inspect)
     cli_curves.add_autocomplete_command(sub)
     return parser
+
+
+def _add_image_args(syn) -> None:
+    """Options of ``--from-image`` (a raster image vectorized into texton elements first)."""
+    img = syn.add_argument_group("from a raster image (vectorized into texton elements first)")
+    img.add_argument("--from-image", metavar="IMAGE",
+                     help="vectorize IMAGE (neuraltex vectorize) and use it as the exemplar; a "
+                     "texture file (.ntex, neuraltex fit) gives its fitted segments")
+    img.add_argument("--segmenter", default="model", choices=("model", "felzenszwalb"),
+                     help="texton model (default) or the Felzenszwalb baseline")
+    img.add_argument("--checkpoint", help="texton model .safetensors (default: the shipped one)")
+    img.add_argument("--max-side", type=types.integer(16, 4096), default=256,
+                     help="the image is downscaled to this side first (16-4096, default 256)")
+    img.add_argument("--exemplar-out", type=types.output_file(".svg"),
+                     help="also write the vectorized exemplar SVG here")
+    img.add_argument("--w-a", type=types.number(0, MAX_WEIGHT),
+                     help="weight of the texton-kind appearance term A(s) (default 1; 0: off)")
 
 
 def _add_pattern_args(syn) -> None:
@@ -120,20 +157,24 @@ def _output_size(args, exemplar) -> tuple[float, float]:
 
 
 def _check_args(args) -> None:
-    if not 1 <= args.levels <= 3:
-        raise InputError("--levels must be 1, 2 or 3")
-    if not 1 <= args.iterations <= 100:
-        raise InputError("--iterations must be between 1 and 100")
-    if args.threads < 1:
-        raise InputError("--threads must be >= 1")
     if (args.exemplar is None) == (args.from_image is None):
         raise InputError("give an exemplar SVG or --from-image IMAGE (one of the two)")
-    if args.max_side < 16:
-        raise InputError("--max-side must be >= 16")
-    for name in ("w_f", "w_l", "w_s", "w_a"):
-        v = getattr(args, name)
-        if v is not None and not (math.isfinite(v) and v >= 0):
-            raise InputError(f"--{name.replace('_', '-')} must be a finite number >= 0")
+    if args.debug_dir is not None:
+        debug = Path(args.debug_dir)
+        if debug.exists() and not debug.is_dir():
+            raise InputError(f"--debug-dir {debug}: not a folder")
+        check_writable(debug / "energy.png")
+
+
+def _warn(ex) -> None:
+    """The parser's warnings (ignored references, dropped shapes), one line each."""
+    for line in ex.warnings:
+        print(f"cvt: warning: {line}", file=sys.stderr)
+
+
+def _arrangeable(ex) -> None:
+    if not ex.elements:
+        raise InputError("the exemplar has only background content and no elements to arrange")
 
 
 def cmd_synthesize(args) -> int:
@@ -141,11 +182,12 @@ def cmd_synthesize(args) -> int:
 
     _check_args(args)
     image = _from_image(args) if args.from_image else None
-    ex = image.exemplar if image else load_svg(args.exemplar, args.elements)  # bad input fails
+    lim = limits_from(args)
+    ex = image.exemplar if image else load_svg(args.exemplar, args.elements, lim)
+    _warn(ex)
     if cli_curves.is_curves(args, ex):
         return cli_curves.synthesize_curves(args, ex)
-    if not ex.elements:
-        raise InputError("the exemplar has only background content and no elements to arrange")
+    _arrangeable(ex)
     size = _output_size(args, ex)
     if not args.quiet and ex.note:
         print(ex.note, file=sys.stderr)
@@ -163,9 +205,10 @@ def cmd_synthesize(args) -> int:
                           **extra)
     fine = sample_exemplar(ex, cfg.deltas[-1] * ex.size)  # cheap size guard before the work
     est = len(fine) * size[0] * size[1] / (ex.viewbox[2] * ex.viewbox[3])
-    if est > MAX_FINE_SAMPLES:
+    cap = args.max_samples or MAX_FINE_SAMPLES
+    if est > cap:
         raise InputError(f"output too large: about {est:,.0f} finest-level samples "
-                         f"(limit {MAX_FINE_SAMPLES:,})")
+                         f"(limit {cap:,}; raise it with --max-samples)")
     debug = Path(args.debug_dir) if args.debug_dir else None
     bar = tqdm(total=cfg.levels * cfg.iterations, disable=args.quiet, file=sys.stderr,
                unit="it", dynamic_ncols=True)
@@ -194,9 +237,7 @@ def cmd_synthesize(args) -> int:
         from cvt.from_textons import with_backdrop
 
         text = with_backdrop(text, image.backdrop)
-    write_text_atomic(args.output, text)
-    if args.preview:
-        render_png(Path(args.output), Path(args.preview))
+    write_outputs(args, text, image.svg if image is not None else None)
     res = pattern.result
     if debug is not None and res is not None:
         from cvt.debug import draw_energy
@@ -217,7 +258,7 @@ def _pattern_options(args, box):
     from cvt.domain import Domain
     from cvt.pattern import PatternOptions
 
-    domain = Domain.from_svg(args.domain).fitted(box) if args.domain else None
+    domain = Domain.from_svg(args.domain, limits_from(args)).fitted(box) if args.domain else None
     return PatternOptions(lattice=not args.no_lattice, density=not args.no_density,
                           tileable=args.tileable, domain=domain, clip=args.clip)
 
@@ -234,23 +275,31 @@ def _from_image(args):
                              "MODEL.safetensors or --segmenter felzenszwalb")
         checkpoint = DEFAULT_MODEL
     svg = vectorize_image(args.from_image, args.segmenter, checkpoint, max_side=args.max_side)
-    if args.exemplar_out:
-        write_text_atomic(args.exemplar_out, svg)
-    image = image_exemplar(svg)
+    image = image_exemplar(svg)  # --exemplar-out is written with the output (write_outputs)
     if not args.quiet:
         print(f"vectorized {args.from_image}: {len(image.exemplar.elements)} elements",
               file=sys.stderr)
     return image
 
 
-def render_png(svg_path: Path, png_path: Path, background: str = "white") -> None:
-    """Rasterize an SVG file with resvg (no network, no system fonts needed)."""
-    import resvg_py
+def write_outputs(args, text: str, exemplar: str | None = None) -> None:
+    """Write the output SVG ``text``, with ``--preview`` its render (cvt.raster: external
+    references never followed, bounded size) and with ``--exemplar-out`` the vectorized
+    ``exemplar``. The preview is rendered first, so a failure leaves no output at all."""
+    from cvt.raster import png_bytes
 
-    data = resvg_py.svg_to_bytes(svg_path=str(svg_path), background=background,
-                                 skip_system_fonts=True)
-    with atomic_path(png_path) as tmp:
-        tmp.write_bytes(bytes(data))
+    png = None
+    if args.preview:
+        try:
+            png = png_bytes(text)
+        except ValueError as exc:
+            raise InputError(f"cannot render the preview {args.preview}: {one_line(exc)}"
+                             ) from None
+    write_text_atomic(args.output, text)
+    if png is not None:
+        write_bytes_atomic(args.preview, png)
+    if exemplar is not None and getattr(args, "exemplar_out", None):
+        write_text_atomic(args.exemplar_out, exemplar)
 
 
 def cmd_inspect(args) -> int:
@@ -258,9 +307,13 @@ def cmd_inspect(args) -> int:
     from cvt.sampling import hierarchy, sample_exemplar
     from cvt.svg import load_svg
 
-    if not 1 <= args.levels <= 3:
-        raise InputError("--levels must be 1, 2 or 3")
-    ex = load_svg(args.exemplar)
+    png = None
+    if not args.no_png:
+        png = Path(args.png) if args.png else Path(f"{Path(args.exemplar).stem}.samples.png")
+        check_writable(png)
+    ex = load_svg(args.exemplar, limits=limits_from(args))
+    _warn(ex)
+    _arrangeable(ex)
     x, y, w, h = ex.viewbox
     print(f"{args.exemplar}: viewBox {x:g} {y:g} {w:g} {h:g}, size {ex.size:g}, "
           f"{len(ex.elements)} elements, {len(ex.defs)} defs")
@@ -274,8 +327,7 @@ def cmd_inspect(args) -> int:
     for k, lv in enumerate(levels):
         last = sample_exemplar(ex, lv.delta, seed=k)
         print(f"  level {k}: delta {lv.delta:.3g}, radius {lv.radius:.3g}, {len(last)} samples")
-    if not args.no_png:
-        png = Path(args.png) if args.png else Path(f"{Path(args.exemplar).stem}.samples.png")
+    if png is not None:
         draw_samples(last.pos, last.cluster, (x, y, x + w, y + h), png)
         print(f"wrote {png}")
     return 0

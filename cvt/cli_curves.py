@@ -7,14 +7,18 @@ import argparse
 import math
 import sys
 import time
-from pathlib import Path
 
+from cvt.limits import add_limit_arguments, limits_from
+from neuraltex.cli import args as types
 from neuraltex.errors import InputError
-from neuraltex.fileio import write_text_atomic
 
 KINDS = ("auto", "curves", "elements")
 CURVE_METHODS = {"full": "ours", "random": "random"}  # cvt --method -> cvt.curves method
 MAX_OUT_SAMPLES = 50_000
+MAX_REGION_AREA = 25  # autocomplete region / exemplar area
+AUTOCOMPLETE = """Predict the strokes around a partial drawing so they continue a curve exemplar
+(the backend of an interactive editor): the drawing is kept, strokes are added in a margin
+around it (or in --region), at most {area}x the exemplar's area."""
 
 
 def add_curve_arguments(syn: argparse.ArgumentParser) -> None:
@@ -40,7 +44,7 @@ def is_curves(args, exemplar) -> bool:
     return kind == "curves"
 
 
-def domain_inside(path):
+def domain_inside(path, limits):
     """Predicate (N, 2) -> (N,) bool: inside any filled shape of the SVG at ``path``."""
     import numpy as np
     import torch
@@ -48,7 +52,7 @@ def domain_inside(path):
     from cvt.sampling import _inside
     from cvt.svg import load_svg
 
-    shapes = [s for e in load_svg(path).elements for s in e.shapes if s.filled]
+    shapes = [s for e in load_svg(path, limits=limits).elements for s in e.shapes if s.filled]
     if not shapes:
         raise InputError(f"{path}: the domain SVG has no filled shape")
 
@@ -64,7 +68,7 @@ def domain_inside(path):
 
 def synthesize_curves(args, exemplar) -> int:
     """``cvt synthesize`` for a curve exemplar (already parsed, ``exemplar``)."""
-    from cvt.cli import _output_size, render_png
+    from cvt.cli import _output_size, write_outputs
     from cvt.curves.baselines import run_curves
     from cvt.curves.reconstruction import curves_svg
     from cvt.curves.sampling import exemplar_graph
@@ -87,16 +91,15 @@ def synthesize_curves(args, exemplar) -> int:
                       threads=args.threads)
     fine = len(exemplar_graph(cx, cfg.level(exemplar.size, cfg.levels - 1).delta))
     est = fine * size[0] * size[1] / (exemplar.viewbox[2] * exemplar.viewbox[3])
-    if est > MAX_OUT_SAMPLES:
+    cap = getattr(args, "max_samples", None) or MAX_OUT_SAMPLES
+    if est > cap:
         raise InputError(f"output too large: about {est:,.0f} curve samples "
-                         f"(limit {MAX_OUT_SAMPLES:,})")
+                         f"(limit {cap:,}; raise it with --max-samples)")
     domain = getattr(args, "domain", None)
-    inside = domain_inside(domain) if isinstance(domain, str) else None
+    inside = domain_inside(domain, limits_from(args)) if isinstance(domain, str) else None
     t = time.perf_counter()
     g, _ = run_curves(CURVE_METHODS[args.method], cx, size, cfg, inside)
-    write_text_atomic(args.output, curves_svg(exemplar, cx.element_centers(), g, size))
-    if args.preview:
-        render_png(Path(args.output), Path(args.preview))
+    write_outputs(args, curves_svg(exemplar, cx.element_centers(), g, size))
     print(f"wrote {args.output}: curves, {len(g)} samples, {len(g.edges)} edges "
           f"({time.perf_counter() - t:.1f} s)")
     return 0
@@ -105,21 +108,27 @@ def synthesize_curves(args, exemplar) -> int:
 def add_autocomplete_command(sub) -> None:
     """Register ``cvt autocomplete``."""
     ac = sub.add_parser("autocomplete", help="predict the strokes around a partial drawing "
-                        "from a curve exemplar (interactive-editor backend)")
+                        "from a curve exemplar (interactive-editor backend)",
+                        description=AUTOCOMPLETE.format(area=MAX_REGION_AREA))
     ac.add_argument("partial", help="SVG of what has been drawn so far (its canvas = viewBox)")
     ac.add_argument("--exemplar", required=True, help="curve exemplar SVG to imitate")
-    ac.add_argument("-o", "--output", required=True, help="output SVG on the partial's canvas")
-    ac.add_argument("--margin", type=float,
-                    help="predict this far around the drawing (default: a quarter of the "
-                    "exemplar size)")
-    ac.add_argument("--region", type=float, nargs=4, metavar=("X", "Y", "W", "H"),
-                    help="predict inside this rectangle instead")
+    ac.add_argument("-o", "--output", required=True, type=types.output_file(".svg"),
+                    help="output SVG on the partial's canvas")
+    ac.add_argument("--margin", type=types.number(0, 1e7, open_lo=True),
+                    help="predict this far around the drawing, in user units (default: a "
+                    "quarter of the exemplar size)")
+    ac.add_argument("--region", type=types.number(-1e7, 1e7), nargs=4,
+                    metavar=("X", "Y", "W", "H"), help="predict inside this rectangle instead")
     ac.add_argument("--only-new", action="store_true",
                     help="write only the predicted strokes, not the drawing")
-    ac.add_argument("--levels", type=int, default=2, help="hierarchy levels (1-3, default 2)")
-    ac.add_argument("--iterations", type=int, default=7, help="iterations per level")
-    ac.add_argument("--seed", type=int, default=0)
-    ac.add_argument("--preview", help="also render the result to this PNG")
+    ac.add_argument("--levels", type=types.integer(1, 3), default=2,
+                    help="hierarchy levels, 1-3 (default 2)")
+    ac.add_argument("--iterations", type=types.integer(1, 100), default=7,
+                    help="iterations per level, 1-100 (default 7)")
+    ac.add_argument("--seed", type=types.seed, default=0, help="random seed (default 0)")
+    ac.add_argument("--preview", type=types.output_file(".png"),
+                    help="also render the result to this PNG")
+    add_limit_arguments(ac)
     ac.set_defaults(func=cmd_autocomplete)
 
 
@@ -128,8 +137,8 @@ def _region(args, partial, cx):
 
     if args.region is not None:
         x, y, w, h = args.region
-        if not all(math.isfinite(v) for v in args.region) or w <= 0 or h <= 0:
-            raise InputError("--region needs finite X Y and positive W H")
+        if w <= 0 or h <= 0:
+            raise InputError("--region needs a positive width W and height H")
         return (x, y, x + w, y + h)
     margin = cx.exemplar.size / 4 if args.margin is None else args.margin
     if not (math.isfinite(margin) and margin > 0):
@@ -140,19 +149,20 @@ def _region(args, partial, cx):
 def cmd_autocomplete(args) -> int:
     from dataclasses import replace
 
-    from cvt.cli import render_png
+    from cvt.cli import write_outputs
     from cvt.curves.autocomplete import autocomplete
     from cvt.curves.reconstruction import curves_svg
     from cvt.curves.strokes import load_curves
     from cvt.curves.synthesis import CurveConfig
 
-    if not 1 <= args.levels <= 3 or not 1 <= args.iterations <= 100:
-        raise InputError("--levels must be 1-3 and --iterations 1-100")
-    cx = load_curves(args.exemplar)
-    partial = load_curves(args.partial)
+    lim = limits_from(args)
+    cx = load_curves(args.exemplar, lim)
+    partial = load_curves(args.partial, lim)
     box = _region(args, partial, cx)
-    if (box[2] - box[0]) * (box[3] - box[1]) > 25 * cx.exemplar.viewbox[2] * cx.exemplar.viewbox[3]:
-        raise InputError("the region to complete is more than 25x the exemplar's area")
+    area = cx.exemplar.viewbox[2] * cx.exemplar.viewbox[3]
+    if (box[2] - box[0]) * (box[3] - box[1]) > MAX_REGION_AREA * area:
+        raise InputError(f"the region to complete is more than {MAX_REGION_AREA}x the "
+                         "exemplar's area")
     res = autocomplete(cx, partial, box, CurveConfig(levels=args.levels,
                                                      iterations=args.iterations, seed=args.seed))
     x, y, w, h = partial.exemplar.viewbox
@@ -162,9 +172,7 @@ def cmd_autocomplete(args) -> int:
         drawing = "\n".join(e.markup for e in partial.exemplar.elements)
         cut = text.index('<g id="curves">')
         text = text[:cut] + drawing + "\n" + text[cut:]
-    write_text_atomic(args.output, text)
-    if args.preview:
-        render_png(Path(args.output), Path(args.preview))
+    write_outputs(args, text)
     n_new = len(res.graph) - res.n_fixed
     print(f"wrote {args.output}: {n_new} predicted samples around {res.n_fixed} drawn "
           f"({res.seconds:.2f} s)", file=sys.stdout)

@@ -23,12 +23,13 @@ class Domain:
     rings: tuple[np.ndarray, ...]  # each (P, 2), closed implicitly
 
     @staticmethod
-    def from_svg(path) -> Domain:
+    def from_svg(path, limits=None) -> Domain:
         """The closed filled shapes of an SVG file (InputError if none, open or crossing)."""
+        from cvt.limits import DEFAULT
         from cvt.svg import load_svg
 
         try:
-            ex = load_svg(path, "shapes")
+            ex = load_svg(path, "shapes", limits or DEFAULT)
         except InputError as exc:
             raise InputError(f"--domain {path}: {exc}") from None
         rings = []

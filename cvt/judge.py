@@ -89,13 +89,13 @@ class Scene:
 
     @cached_property
     def image(self) -> np.ndarray:
-        import resvg_py
         from PIL import Image
 
+        from cvt.raster import png_bytes
+
         w = max(1, round(self.lay.size[0] * self.scale))
-        png = resvg_py.svg_to_bytes(svg_string=self.svg, background="white",
-                                    skip_system_fonts=True, width=w)
-        return np.asarray(Image.open(io.BytesIO(bytes(png))).convert("RGB"), np.float32) / 255
+        png = png_bytes(self.svg, width=w)
+        return np.asarray(Image.open(io.BytesIO(png)).convert("RGB"), np.float32) / 255
 
     @cached_property
     def degree(self) -> float:

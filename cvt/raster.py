@@ -1,24 +1,80 @@
 """Pixels of vector patterns: whole-document renders (resvg) and per-element coverage masks
-(PIL polygons), both for the quantitative metrics."""
+(PIL polygons), both for the quantitative metrics and the previews.
+
+Every render goes through :func:`png_bytes`: external references are stripped first
+(cvt.references; resvg would read local files named by ``<image href>``), relative links resolve
+in an empty folder, and the picture's size is bounded.
+"""
 
 from __future__ import annotations
 
 import io
+import math
+import re
+import tempfile
 from dataclasses import dataclass
 
 import numpy as np
 from PIL import Image, ImageDraw
 
+from cvt.references import safe_svg_text
 from cvt.svg import Element
+
+MAX_RENDER_SIDE = 4096  # longest side of a render, px (previews, metrics)
+MIN_RENDER_SIDE = 16  # documents smaller than this (e.g. a 1e-6 viewBox) are scaled up
+
+
+def png_bytes(text: str, width: int | None = None, background: str = "white") -> bytes:
+    """PNG of SVG text, ``width`` px wide (default: the document's own size, scaled into
+    [MIN_RENDER_SIDE, MAX_RENDER_SIDE] on the longest side). ValueError when it cannot render."""
+    import resvg_py
+
+    text = safe_svg_text(text)
+    if width is None:
+        text, width = _pixel_size(text)
+    with tempfile.TemporaryDirectory() as empty:  # relative links find nothing
+        png = resvg_py.svg_to_bytes(svg_string=text, background=background, width=width,
+                                    skip_system_fonts=True, resources_dir=empty)
+    return bytes(png)
+
+
+_SIZE = re.compile(r'(\s(width|height)=")([^"]+)(")')
+
+
+def _pixel_size(text: str) -> tuple[str, int | None]:
+    """The text with its root width/height in px (resvg reads no mm, cm, in...), and a render
+    width bringing the longest side into the bounds, or None to keep the document's size."""
+    import svgelements as se
+
+    start = text.find("<svg")
+    end = text.find(">", start) + 1
+    if start < 0 or end <= 0:
+        return text, None
+    px = {}
+    for m in _SIZE.finditer(text, start, end):
+        try:
+            v = se.Length(m.group(3)).value(ppi=96)
+        except (ValueError, TypeError):
+            return text, None
+        if not isinstance(v, float | int) or not math.isfinite(v) or v <= 0:
+            return text, None
+        px[m.group(2)] = float(v)
+    if len(px) != 2:
+        return text, None
+    head = _SIZE.sub(lambda m: f"{m.group(1)}{px[m.group(2)]:.6g}{m.group(4)}", text[start:end])
+    text = text[:start] + head + text[end:]
+    longest = max(px.values())
+    if MIN_RENDER_SIDE <= longest <= MAX_RENDER_SIDE:
+        return text, None
+    side = MAX_RENDER_SIDE if longest > MAX_RENDER_SIDE else MIN_RENDER_SIDE
+    return text, max(1, round(px["width"] * side / longest))
 
 
 def render_svg(text: str) -> np.ndarray:
-    """RGB render of SVG text on white, at the document's pixel size. Shape: -> (H, W, 3)
-    float in [0, 1]."""
-    import resvg_py
-
-    png = resvg_py.svg_to_bytes(svg_string=text, background="white", skip_system_fonts=True)
-    return np.asarray(Image.open(io.BytesIO(bytes(png))).convert("RGB"), dtype=np.float32) / 255
+    """RGB render of SVG text on white, at the document's pixel size (bounded, see
+    :func:`png_bytes`). Shape: -> (H, W, 3) float in [0, 1]."""
+    png = png_bytes(text)
+    return np.asarray(Image.open(io.BytesIO(png)).convert("RGB"), dtype=np.float32) / 255
 
 
 @dataclass

@@ -17,6 +17,9 @@ from cvt.svg import Element, Exemplar, Shape
 
 DEFAULT_DELTAS = (1 / 20, 1 / 30, 1 / 40)  # sampling distance / exemplar size (sec. 7.3)
 DEFAULT_RADII = (1 / 6, 1 / 8, 1 / 12)  # neighborhood radius / exemplar size (sec. 7.3)
+MAX_ALONG = 200_000  # points along one outline (a longer one is walked in coarser steps)
+MAX_GRID = 1_000_000  # fill-grid points of one element (a larger grid is cut to the region)
+CHUNK = 1 << 22  # points x edges per block of the fill test (~100 MB of temporaries)
 
 
 @dataclass(frozen=True)
@@ -72,17 +75,24 @@ def _inside(points: np.ndarray, shape: Shape) -> np.ndarray:
     Shape: points (M, 2) -> (M,) bool.
     """
     wind = np.zeros(len(points), dtype=np.int64)
-    x, y = points[:, :1], points[:, 1:]
     for ring in shape.rings:
         if len(ring) < 3:
             continue
         a, b = ring, np.roll(ring, -1, axis=0)  # (E, 2) edges a -> b, implicitly closed
-        ax, ay, bx, by = a[:, 0], a[:, 1], b[:, 0], b[:, 1]
-        left = (bx - ax) * (y - ay) - (x - ax) * (by - ay)  # (M, E) > 0: point left of edge
-        up = (ay <= y) & (by > y) & (left > 0)
-        down = (ay > y) & (by <= y) & (left < 0)
-        wind += up.sum(1) - down.sum(1)
+        step = max(1, CHUNK // len(ring))  # points per block: memory stays bounded
+        for i in range(0, len(points), step):
+            wind[i : i + step] += _winding(points[i : i + step], a, b)
     return (wind % 2 == 1) if shape.evenodd else (wind != 0)
+
+
+def _winding(points: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Winding number of points around the edges a -> b. Shape: (M, 2), (E, 2) x 2 -> (M,)."""
+    x, y = points[:, :1], points[:, 1:]
+    ax, ay, bx, by = a[:, 0], a[:, 1], b[:, 0], b[:, 1]
+    left = (bx - ax) * (y - ay) - (x - ax) * (by - ay)  # (M, E) > 0: point left of edge
+    up = (ay <= y) & (by > y) & (left > 0)
+    down = (ay > y) & (by <= y) & (left < 0)
+    return up.sum(1) - down.sum(1)
 
 
 def _along(ring: np.ndarray, closed: bool, step: float) -> np.ndarray:
@@ -92,21 +102,29 @@ def _along(ring: np.ndarray, closed: bool, step: float) -> np.ndarray:
         return pts
     seg = np.diff(pts, axis=0)
     cum = np.r_[0, np.cumsum(np.linalg.norm(seg, axis=1))]
+    step = max(step, cum[-1] / MAX_ALONG)
     t = np.arange(0, cum[-1] + 1e-9, step) if cum[-1] > 0 else np.zeros(1)
     return np.stack([np.interp(t, cum, pts[:, 0]), np.interp(t, cum, pts[:, 1])], 1)
 
 
-def element_candidates(element: Element, delta: float, rng: np.random.Generator) -> np.ndarray:
+def element_candidates(element: Element, delta: float, rng: np.random.Generator,
+                       region=None) -> np.ndarray:
     """Dense candidate points on an element: jittered grid in fills, points along strokes.
+    The grid covers the element's box; when that takes more than MAX_GRID points it is cut to
+    ``region`` (x0, y0, x1, y1): the part of a huge element far off the canvas gets no samples.
 
     Shape: -> (M, 2).
     """
     box = element.bbox
     extent = max(min(box[2] - box[0], box[3] - box[1]), 1e-9)
     step = min(delta / 3, extent / 4)
+    lo, hi = box[:2], box[2:]
+    if region is not None and np.prod((hi - lo) / step) > MAX_GRID:
+        lo, hi = np.maximum(lo, region[:2]), np.minimum(hi, region[2:])
+        step = max(step, delta / 3 * 1e-3)  # a thin sliver of a huge element: a finite grid
     out = []
-    gx = np.arange(box[0] + step / 2, box[2], step)
-    gy = np.arange(box[1] + step / 2, box[3], step)
+    gx = np.arange(lo[0] + step / 2, hi[0], step)
+    gy = np.arange(lo[1] + step / 2, hi[1], step)
     grid = np.stack(np.meshgrid(gx, gy), -1).reshape(-1, 2)
     grid = grid + rng.uniform(-step / 3, step / 3, grid.shape)
     for shape in element.shapes:
@@ -150,9 +168,11 @@ def sample_exemplar(exemplar: Exemplar, delta: float, seed: int = 0,
                     dtype: torch.dtype = torch.float32) -> Samples:
     """Poisson-disk samples of every element; cluster id = z = element index."""
     rng = np.random.default_rng(seed)
+    x, y, w, h = exemplar.viewbox
+    region = np.array([x - w, y - h, x + 2 * w, y + 2 * h])  # the canvas and one more around
     pos, elem = [], []
     for e in exemplar.elements:
-        pts = poisson_disk(element_candidates(e, delta, rng), delta, rng)
+        pts = poisson_disk(element_candidates(e, delta, rng, region), delta, rng)
         pos.append(pts)
         elem.append(np.full(len(pts), e.index))
     p = torch.as_tensor(np.concatenate(pos), dtype=dtype)  # (N, 2)

@@ -3,32 +3,34 @@
 An element is one top-level drawable node of the document (a ``<g>`` group counts as one
 element). Its geometry is read with svgelements (``<use>`` expanded, transforms applied) in
 the document's user units (the viewBox space); its original XML is kept verbatim so the output
-reproduces it exactly, only wrapped in a ``translate``. Untrusted input is parsed defensively:
-no DTD (hence no entity expansion), no external fetches, bounded sizes.
+reproduces it exactly, only wrapped in a ``translate``. Untrusted input is parsed defensively
+(cvt.xml_input): no DTD (hence no entity expansion), external references removed
+(cvt.references), ``<use>`` cycles and expansion bombs refused (cvt.use_expansion), sizes
+bounded (cvt.limits); geometry that is not finite or lies absurdly far from the canvas is dropped.
 """
 
 from __future__ import annotations
 
 import copy
-import io
 import math
 import re
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass, field
 
 import numpy as np
-import svgelements as se
 
 from cvt.background import covers, split_background
+from cvt.element_geometry import ROOT_GEOMETRY_ATTRS, Shape, box_of, element_reader, ids, refs
+from cvt.element_geometry import local as _local
 from cvt.elements import element_nodes, open_layers
+from cvt.limits import DEFAULT, SvgLimits
+from cvt.references import strip_external
+from cvt.xml_input import read_xml
 from neuraltex.errors import InputError
 
 SVG_NS = "http://www.w3.org/2000/svg"
 XLINK_NS = "http://www.w3.org/1999/xlink"
-MAX_BYTES = 10_000_000
-MAX_NODES = 200_000
-MAX_ELEMENTS = 5_000
-MAX_EXTENT = 1e7
+MAX_EXTENT = 1e7  # viewBox numbers (user units)
 
 # Non-rendered nodes that may be referenced by elements; carried over into the output <defs>.
 _DEF_TAGS = {
@@ -37,30 +39,6 @@ _DEF_TAGS = {
 }
 _SKIP_TAGS = {"title", "desc", "metadata", "script", "namedview"}
 _UNSUPPORTED_TAGS = {"text", "image", "foreignObject"}
-_ROOT_GEOMETRY_ATTRS = {"width", "height", "viewBox", "x", "y", "id", "version"}
-
-
-@dataclass
-class Shape:
-    """One primitive of an element: flattened outline rings in user units."""
-
-    rings: list[np.ndarray]  # each (P, 2); closed rings repeat no point
-    closed: list[bool]
-    filled: bool
-    stroke_width: float  # 0 when not stroked
-    evenodd: bool = False
-    stroke_color: str | None = None  # '#rrggbb' when stroked (curve styles, cvt.curves)
-
-
-def _box(shapes: list[Shape]) -> np.ndarray:
-    """(4,) xmin, ymin, xmax, ymax of shapes, incl. half stroke width."""
-    boxes = []
-    for s in shapes:
-        hw = s.stroke_width / 2
-        for r in s.rings:
-            boxes.append(np.r_[r.min(0) - hw, r.max(0) + hw])
-    b = np.stack(boxes)
-    return np.r_[b[:, :2].min(0), b[:, 2:].max(0)]
 
 
 @dataclass
@@ -73,7 +51,7 @@ class Element:
 
     @property
     def bbox(self) -> np.ndarray:  # (4,) xmin, ymin, xmax, ymax incl. half stroke width
-        return _box(self.shapes)
+        return box_of(self.shapes)
 
     @property
     def markup(self) -> str:
@@ -94,44 +72,12 @@ class Exemplar:
     # background, never arranged. Its elements keep their document order.
     background: list[Element] = field(default_factory=list)
     note: str = ""  # what the parser decided (element mode, background), one line
+    warnings: list[str] = field(default_factory=list)  # what was ignored (external links...)
 
     @property
     def size(self) -> float:
         """Exemplar size: mean of width and height (seed 000 sec. 7.3)."""
         return (self.viewbox[2] + self.viewbox[3]) / 2
-
-
-def _local(tag: str) -> str:
-    return tag.rsplit("}", 1)[-1].rsplit(":", 1)[-1]
-
-
-def _check_safe(data: bytes) -> None:
-    if len(data) > MAX_BYTES:
-        raise InputError(f"SVG is too large ({len(data)} bytes > {MAX_BYTES})")
-    head = data.upper()
-    if b"<!DOCTYPE" in head or b"<!ENTITY" in head:
-        raise InputError("SVG with DOCTYPE/ENTITY declarations is not accepted (entity expansion)")
-
-
-def _parse_xml(data: bytes) -> tuple[ET.Element, dict[str, str]]:
-    namespaces: dict[str, str] = {}
-    try:
-        events = ET.iterparse(io.BytesIO(data), events=("start-ns", "end"))
-        root = None
-        count = 0
-        for ev, item in events:
-            if ev == "start-ns":
-                namespaces.setdefault(item[0], item[1])
-            else:
-                count += 1
-                root = item
-                if count > MAX_NODES:
-                    raise InputError(f"SVG has more than {MAX_NODES} nodes")
-    except ET.ParseError as exc:
-        raise InputError(f"malformed SVG/XML: {exc}") from None
-    if root is None or _local(root.tag) != "svg":
-        raise InputError("not an SVG document (root element is not <svg>)")
-    return root, namespaces
 
 
 def _length(value: str | None) -> tuple[float, str] | None:
@@ -143,7 +89,8 @@ def _length(value: str | None) -> tuple[float, str] | None:
     return float(m.group(1)), m.group(2)
 
 
-def _viewbox(root: ET.Element) -> tuple[tuple[float, float, float, float], tuple[float, str]]:
+def _viewbox(root: ET.Element, limits: SvgLimits
+             ) -> tuple[tuple[float, float, float, float], tuple[float, str]]:
     w, h = _length(root.get("width")), _length(root.get("height"))
     vb = root.get("viewBox")
     if vb is not None:
@@ -159,6 +106,7 @@ def _viewbox(root: ET.Element) -> tuple[tuple[float, float, float, float], tuple
         raise InputError("SVG needs a viewBox or numeric width and height")
     if not all(math.isfinite(v) and abs(v) < MAX_EXTENT for v in box) or box[2] <= 0 or box[3] <= 0:
         raise InputError(f"absurd SVG size (viewBox {box})")
+    limits.check(max(box[2] / box[3], box[3] / box[2]), "max_aspect", "SVG viewBox aspect ratio")
     unit = (1.0, "")
     if w is not None and w[1] != "%" and w[0] > 0:
         unit = (w[0] / box[2], w[1])
@@ -170,85 +118,20 @@ def _hidden(node: ET.Element) -> bool:
     return node.get("display") == "none" or "display:none" in style
 
 
-def _ring_points(sub: se.Path) -> tuple[np.ndarray, bool]:
-    pts: list[np.ndarray] = []
-    closed = False
-    for seg in sub:
-        if isinstance(seg, se.Move):
-            pts.append(np.array([[seg.end.x, seg.end.y]]))
-        elif isinstance(seg, se.Close):
-            closed = True
-        elif isinstance(seg, se.Line):
-            pts.append(np.array([[seg.end.x, seg.end.y]]))
-        else:
-            t = np.linspace(0, 1, 17)[1:]
-            pts.append(np.asarray(seg.npoint(t), dtype=np.float64).reshape(-1, 2))
-    ring = np.concatenate(pts) if pts else np.zeros((0, 2))
-    if len(ring) > 1 and np.allclose(ring[0], ring[-1]):
-        ring, closed = ring[:-1], True
-    return ring, closed
-
-
-def _shapes_of(doc: bytes) -> list[Shape]:
-    """Flattened shapes of a one-element document (geometry via svgelements)."""
-    svg = se.SVG.parse(io.BytesIO(doc))
-    shapes = []
-    for e in svg.elements():
-        if not isinstance(e, se.Shape) or e.values.get("visibility") in ("hidden", "collapse"):
-            continue
-        if e.values.get("display") == "none":
-            continue
-        filled = e.fill is not None and e.fill.value is not None
-        stroked = e.stroke is not None and e.stroke.value is not None
-        if not (filled or stroked):
-            continue
-        rings, closed = [], []
-        path = abs(se.Path(e))  # bake any transform svgelements kept (e.g. rotated rounded rect)
-        for sub in path.as_subpaths():
-            ring, c = _ring_points(se.Path(sub))
-            if len(ring) >= 1 and np.isfinite(ring).all():
-                rings.append(ring)
-                closed.append(c)
-        extent = max((float(np.ptp(r, axis=0).max()) for r in rings), default=0.0)
-        if rings and (extent > 0 or stroked):
-            sw = float(getattr(e, "implicit_stroke_width", None) or e.stroke_width or 1.0)
-            sw = sw if stroked else 0.0
-            evenodd = e.values.get("fill-rule", "nonzero") == "evenodd"
-            color = e.stroke.hexrgb if stroked else None
-            shapes.append(Shape(rings, closed, filled, sw, evenodd, color))
-    return shapes
-
-
-def _mini_doc(root: ET.Element, hidden: list[ET.Element], node: ET.Element) -> bytes:
-    """A document with one visible node; everything it may reference sits in <defs>."""
-    mini = ET.Element(f"{{{SVG_NS}}}svg", {"width": "100000", "height": "100000"})
-    for k, v in root.attrib.items():
-        if _local(k) not in _ROOT_GEOMETRY_ATTRS:
-            mini.set(k, v)
-    defs = ET.SubElement(mini, f"{{{SVG_NS}}}defs")
-    defs.extend(hidden)
-    mini.append(node)
-    return ET.tostring(mini)
-
-
-def parse_svg(data: bytes, elements: str = "groups") -> Exemplar:
+def parse_svg(data: bytes, elements: str = "groups", limits: SvgLimits = DEFAULT
+              ) -> Exemplar:
     """Parse untrusted SVG bytes into an :class:`Exemplar` (raises InputError on bad input).
 
     ``elements`` says which nodes are elements (cvt.elements: "auto", "shapes", "groups"; the
     default "groups" is the file's top-level nodes). Background content (cvt.background) is
-    split off into ``Exemplar.background``."""
-    _check_safe(data)
-    root, namespaces = _parse_xml(data)
-    for prefix, uri in namespaces.items():  # keep the file's prefixes (inkscape:, sodipodi:)
-        if prefix and not re.fullmatch(r"ns\d+", prefix) and uri not in (SVG_NS, XLINK_NS):
-            try:
-                ET.register_namespace(prefix, uri)
-            except ValueError:
-                pass
-    ET.register_namespace("", SVG_NS)
-    ET.register_namespace("xlink", XLINK_NS)
-    box, unit = _viewbox(root)
-    defs, candidates, unsupported = [], [], 0
+    split off into ``Exemplar.background``. ``limits`` bounds the work (cvt.limits)."""
+    root, namespaces = read_xml(data, limits)
+    if root is None or _local(root.tag) != "svg":
+        raise InputError("not an SVG document (root element is not <svg>)")
+    _register(namespaces)
+    external = strip_external(root)
+    box, unit = _viewbox(root, limits)
+    defs, tops, unsupported = [], [], 0
     for child in root:
         if not isinstance(child.tag, str):
             continue
@@ -258,37 +141,67 @@ def parse_svg(data: bytes, elements: str = "groups") -> Exemplar:
         elif tag in _UNSUPPORTED_TAGS:
             unsupported += 1
         elif tag not in _SKIP_TAGS and not _hidden(child):
-            candidates.append(child)
-    tops = candidates
+            tops.append(child)
     candidates, note = element_nodes(tops, elements, _drawable)
-    if len(candidates) > MAX_ELEMENTS:
-        raise InputError(f"SVG has more than {MAX_ELEMENTS} elements")
+    limits.check(len(candidates), "max_elements", "SVG elements")
     defs = defs + _nested_defs(tops)
-    by_id = _ids(defs + tops)
-    styles = [n for d in defs for n in d.iter() if _local(n.tag) == "style"]
-
-    def read(node: ET.Element) -> list[Shape]:
-        hidden = styles + [by_id[i] for i in _reference_closure(node, by_id)]
-        try:
-            return _shapes_of(_mini_doc(root, hidden, node))
-        except (ValueError, TypeError, IndexError, AttributeError, ZeroDivisionError) as exc:
-            raise InputError(f"cannot read element <{_local(node.tag)}>: {exc}") from None
-
+    by_id = ids(defs + tops)
+    read, reader, skipped = element_reader(root, defs, by_id, box, limits)
     pairs = [(node, read(node)) for node in candidates]
     if elements == "auto":  # a group spanning the canvas is a layer of the file, not a motif
-        pairs, opened = open_layers(pairs, lambda sh: covers(_box(sh), box), read, _drawable)
+        pairs, opened = open_layers(pairs, lambda sh: covers(box_of(sh), box), read, _drawable)
         note += f", {opened} canvas-wide group(s) opened" if opened else ""
     elements = [Element(k, n, sh) for k, (n, sh) in enumerate(p for p in pairs if p[1])]
     if not elements:
         if unsupported:
             raise InputError("SVG has only text or raster <image> content; nothing to synthesize")
-        raise InputError("SVG has no drawable elements")
-    root_attrs = {k: v for k, v in root.attrib.items() if _local(k) not in _ROOT_GEOMETRY_ATTRS}
+        why = _warnings(0, reader.dropped, skipped)
+        raise InputError("SVG has no drawable elements" + (f" ({why[0]})" if why else ""))
+    limits.check(sum(len(r) for e in elements for s in e.shapes for r in s.rings), "max_points",
+                 "flattened outline points")
+    root_attrs = {k: v for k, v in root.attrib.items() if _local(k) not in ROOT_GEOMETRY_ATTRS}
     # Referenced top-level elements must stay resolvable in the output: keep them as defs too.
-    used = set().union(*(_refs(e.node) for e in elements)) if elements else set()
+    used = set().union(*(refs(e.node) for e in elements)) if elements else set()
     referenced = [c for c in tops if c.get("id") in used]
-    return split_background(Exemplar(elements, box, root_attrs, defs + referenced, unit,
-                                     note=note))
+    warnings = _warnings(external, reader.dropped, skipped)
+    ex = split_background(Exemplar(elements, box, root_attrs, defs + referenced, unit,
+                                   note=note, warnings=warnings))
+    _check_on_canvas(ex)
+    return ex
+
+
+def _register(namespaces: dict[str, str]) -> None:
+    for prefix, uri in namespaces.items():  # keep the file's prefixes (inkscape:, sodipodi:)
+        if prefix and not re.fullmatch(r"ns\d+", prefix) and uri not in (SVG_NS, XLINK_NS):
+            try:
+                ET.register_namespace(prefix, uri)
+            except ValueError:
+                pass
+    ET.register_namespace("", SVG_NS)
+    ET.register_namespace("xlink", XLINK_NS)
+
+
+def _warnings(external: int, dropped: int, skipped: list[str]) -> list[str]:
+    out = []
+    if external:
+        out.append(f"ignored {external} external reference(s) (<image>/<use> href, CSS url, "
+                   "@import): never read")
+    if dropped:
+        out.append(f"dropped {dropped} shape(s) with non-finite or absurdly far coordinates or "
+                   "stroke width")
+    if skipped:
+        out.append(f"skipped {len(skipped)} element(s) that cannot be read ({skipped[0]})")
+    return out
+
+
+def _check_on_canvas(ex: Exemplar) -> None:
+    """InputError when every element lies outside the viewBox: nothing on the canvas."""
+    x, y, w, h = ex.viewbox
+    for e in ex.elements + ex.background:
+        b = e.bbox
+        if b[0] < x + w and b[2] > x and b[1] < y + h and b[3] > y:
+            return
+    raise InputError(f"no element is on the canvas (viewBox {x:g} {y:g} {w:g} {h:g})")
 
 
 def _drawable(node: ET.Element) -> bool:
@@ -315,44 +228,17 @@ def _nested_defs(tops: list[ET.Element]) -> list[ET.Element]:
     return out
 
 
-_REF = re.compile(r"#([^\s)'\"#]+)")
-
-
-def _refs(node: ET.Element) -> set[str]:
-    """Ids referenced (href="#id", url(#id)) anywhere inside ``node``."""
-    return {m for n in node.iter() for v in n.attrib.values() if "#" in v
-            for m in _REF.findall(v)}
-
-
-def _ids(nodes: list[ET.Element]) -> dict[str, ET.Element]:
-    """Id -> node for the given nodes and everything inside them (first one wins)."""
-    out: dict[str, ET.Element] = {}
-    for top in nodes:
-        for n in top.iter():
-            if n.get("id") and n.get("id") not in out:
-                out[n.get("id")] = n
-    return out
-
-
-def _reference_closure(node: ET.Element, by_id: dict[str, ET.Element]) -> list[str]:
-    """Ids ``node`` needs, directly or through what those ids reference in turn."""
-    todo, seen = list(_refs(node)), set()
-    while todo:
-        i = todo.pop()
-        if i in seen or i not in by_id:
-            continue
-        seen.add(i)
-        todo.extend(_refs(by_id[i]))
-    return sorted(seen)
-
-
-def load_svg(path, elements: str = "groups") -> Exemplar:
+def read_file(path, limits: SvgLimits) -> bytes:
+    """The bytes of the SVG file at ``path`` (at most ``limits.max_bytes`` + 1 of them)."""
     try:
         with open(path, "rb") as f:
-            data = f.read(MAX_BYTES + 1)
-    except OSError as exc:
-        raise InputError(f"cannot read {path}: {exc.strerror or exc}") from None
-    return parse_svg(data, elements)
+            return f.read(limits.max_bytes + 1)
+    except (OSError, ValueError) as exc:  # ValueError: a NUL byte in the name
+        raise InputError(f"cannot read {path}: {getattr(exc, 'strerror', None) or exc}") from None
+
+
+def load_svg(path, elements: str = "groups", limits: SvgLimits = DEFAULT) -> Exemplar:
+    return parse_svg(read_file(path, limits), elements, limits)
 
 
 def _renamed_copy(node: ET.Element, suffix: str) -> ET.Element:

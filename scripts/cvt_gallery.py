@@ -22,10 +22,9 @@ EXEMPLARS = ROOT / "cvt" / "exemplars"
 
 
 def render(svg: str, height: int) -> Image.Image:
-    import resvg_py
+    from cvt.raster import png_bytes
 
-    png = resvg_py.svg_to_bytes(svg_string=svg, background="white")
-    im = Image.open(io.BytesIO(bytes(png))).convert("RGB")
+    im = Image.open(io.BytesIO(png_bytes(svg))).convert("RGB")
     return im.resize((round(im.width * height / im.height), height), Image.LANCZOS)
 
 

@@ -5,7 +5,7 @@ baseline and random placement of exemplar pieces (cvt.curves.baselines).
     python scripts/eval_curves.py [--scale 1.5] [--out docs/curves_eval.md] [NAME ...]
 
 Outputs are read back from their SVG and sampled at the finest spacing, like the exemplar
-(cvt.curves.stats). Targets (issue 18): degree TV, end-density relative error and curvature TV
+(cvt.curves.stats). Targets: degree TV, end-density relative error and curvature TV
 <= 0.15, and better than no-connectivity, on >= 80 % of the exemplars.
 """
 

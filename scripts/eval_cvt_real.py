@@ -40,13 +40,13 @@ def _render(svg: str, size, ex):
     import io
 
     import numpy as np
-    import resvg_py
     from PIL import Image
 
+    from cvt.raster import png_bytes
+
     w = round(size[0] * 2 * PIXELS / ex.viewbox[2])
-    png = resvg_py.svg_to_bytes(svg_string=svg, background="white", skip_system_fonts=True,
-                                width=w)
-    return np.asarray(Image.open(io.BytesIO(bytes(png))).convert("RGB"), np.float32) / 255
+    return np.asarray(Image.open(io.BytesIO(png_bytes(svg, width=w))).convert("RGB"),
+                      np.float32) / 255
 
 
 def _fmt(v) -> str:

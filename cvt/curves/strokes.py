@@ -13,7 +13,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from cvt.curves.graph import StrokeStyle
-from cvt.svg import MAX_BYTES, Exemplar, parse_svg
+from cvt.limits import DEFAULT, SvgLimits
+from cvt.svg import Exemplar, parse_svg, read_file
 from neuraltex.errors import InputError
 
 MAX_STROKE_POINTS = 2_000_000  # flattened points over all strokes
@@ -104,10 +105,5 @@ def _dedupe(points: np.ndarray) -> np.ndarray:
     return points[keep]
 
 
-def load_curves(path) -> CurveExemplar:
-    try:
-        with open(path, "rb") as f:
-            data = f.read(MAX_BYTES + 1)  # parse_svg rejects anything longer
-    except OSError as exc:
-        raise InputError(f"cannot read {path}: {exc.strerror or exc}") from None
-    return curve_exemplar(parse_svg(data))
+def load_curves(path, limits: SvgLimits = DEFAULT) -> CurveExemplar:
+    return curve_exemplar(parse_svg(read_file(path, limits), limits=limits))

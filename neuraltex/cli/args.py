@@ -72,3 +72,24 @@ def device_problem(text: str) -> str | None:
     if dev.type == "mps" and torch.backends.mps.is_available():
         return None
     return f"{text}: no such device on this machine (use cpu)"
+
+
+def output_file(*suffixes: str):
+    """An argparse type: a path a file can be written to (neuraltex.fileio.check_writable),
+    ending in one of ``suffixes`` (any case); checked before any work is done."""
+
+    def parse(text: str) -> str:
+        from neuraltex.errors import InputError
+        from neuraltex.fileio import check_writable
+
+        if not text.lower().endswith(suffixes):
+            raise argparse.ArgumentTypeError(f"{text!r}: the name must end in "
+                                             f"{' or '.join(suffixes)}")
+        try:
+            check_writable(text)
+        except InputError as exc:
+            raise argparse.ArgumentTypeError(str(exc)) from None
+        return text
+
+    parse.__name__ = "output file"
+    return parse
