@@ -81,6 +81,20 @@ def attach(textons: Textons, sprites: Tensor) -> Textons:
     return replace(textons, f=torch.cat([textons.f, sprites.flatten(2)], dim=-1))
 
 
+def resize_sprites(textons: Textons, plain: int, side: int) -> Textons:
+    """The textons (f = [f (``plain`` channels), vec(D)]) with their sprites resampled to
+    ``side`` texels (bilinear), e.g. to mix textures fitted with different sprite sizes;
+    textons without sprites get blank ones."""
+    t, sprites = split(textons, plain)
+    B, K = t.p.shape
+    if sprites is None:
+        sprites = t.f.new_zeros(B, K, 3, side, side)
+    elif sprites.shape[-1] != side:
+        sprites = F.interpolate(sprites.flatten(0, 1), size=(side, side), mode="bilinear",
+                                align_corners=False).reshape(B, K, 3, side, side)
+    return attach(t, sprites)
+
+
 def frames(textons: Textons) -> Tensor:
     """A_i = REACH U_i^(1/2) Q_i: u = A_i^-1 (p - mu_i) has |u| = M / REACH, and the first
     axis A_i e_1 lies along the Gaussian's long axis (pointing the way of v_i) when the

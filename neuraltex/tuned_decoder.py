@@ -81,11 +81,12 @@ def combine(model, items: list[tuple[Textons, object]], t: float | None = None):
     ``items``: (textons, tuned model or None) per texture, in priority order. Without tuned
     ones: ``model`` and the textons as they are. Otherwise the first tuned decoder (with
     ``t``, the first two blended in weight space, (1 - t) G_a + t G_b, as they share the base),
-    and every set padded to the widest layout (:func:`with_offsets`): plain textures get zero
-    colour offsets, textures without detail sprites get blank ones.
+    and every set brought to one layout: plain textures get zero colour offsets
+    (:func:`with_offsets`), and when any texture has detail sprites, every set gets sprites of
+    the largest side (resampled, or blank for textures without them).
     Returns (decoder model, [textons]).
     """
-    from neuraltex.errors import InputError
+    from neuraltex.texton_detail import resize_sprites, sprite_side
 
     tuned = [dec for _, dec in items if dec is not None]
     if not tuned:
@@ -94,9 +95,9 @@ def combine(model, items: list[tuple[Textons, object]], t: float | None = None):
     if t is not None and len(tuned) > 1:
         decoder = blended_model(tuned[0], tuned[1], t)
     base = decoder.generator.feature_channels - 2  # [f_a, d]
-    widths = {textons.feature_dim for textons, dec in items if dec is not None} - {base}
-    if len(widths) > 1:
-        raise InputError("these texture files have detail sprites of different sizes; "
-                         "fit them with the same --detail")
-    width = max(widths, default=base)
-    return decoder, [with_offsets(textons, width) for textons, _ in items]
+    sets = [with_offsets(textons, base) if dec is None else textons for textons, dec in items]
+    sides = [sprite_side(s.feature_dim - base) for s in sets]
+    if not any(sides):
+        return decoder, sets
+    side = max(s for s in sides if s)
+    return decoder, [resize_sprites(s, base, side) for s in sets]

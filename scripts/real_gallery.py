@@ -43,6 +43,7 @@ def main() -> None:
     ap.add_argument("names", nargs="*", default=["brick", "coins", "leopard", "stone_wall"],
                     help="real textures (file stems in data/real_textures)")
     ap.add_argument("--seconds", type=float, default=45.0, help="fit budget per texture (45)")
+    ap.add_argument("--steps", type=int, help="fit step budget instead (reproducible)")
     ap.add_argument("--out", type=Path, default=DOCS, help="output folder (default docs/)")
     args = ap.parse_args()
     torch.set_num_threads(1)
@@ -50,7 +51,8 @@ def main() -> None:
     fits = []
     for name in args.names:
         image = load_image(REAL / f"{name}.png")
-        fit = fit_texture(model, image, FitSettings(seconds=args.seconds))
+        fit = fit_texture(model, image, FitSettings(seconds=None if args.steps else args.seconds,
+                                                    steps=args.steps))
         print(f"{name}: {fit.segmenter}, {fit.textons.num_textons} textons, "
               f"{fit.steps} steps, PSNR {fit.base_psnr:.2f} -> {fit.plain_psnr:.2f} dB, "
               f"with detail sprites {fit.psnr:.2f} dB", flush=True)

@@ -95,6 +95,14 @@ def test_a_fit_without_detail_sprites_still_decodes_everywhere(files, tmp_path):
                  str(tmp_path / "mix.png"), "--t", "0.5"]) == 0
     assert main(["transfer", str(files / "a.ntex"), str(plain), "-o",
                  str(tmp_path / "tr.png")]) == 0
+    # sprites of different sides (auto sizes them by texton count) are resampled to one
+    small = tmp_path / "small.ntex"
+    assert main(["fit", str(files / "a.png"), "-o", str(small), "--steps", "5",
+                 "--segmenter", "felzenszwalb", "--detail", "4"]) == 0
+    assert main(["interpolate", str(small), str(files / "a.ntex"), "-o",
+                 str(tmp_path / "mix2.png"), "--t", "0.5"]) == 0
+    assert main(["transfer", str(small), str(files / "a.ntex"), "-o",
+                 str(tmp_path / "tr2.png"), "--mode", "replace"]) == 0
 
 
 @pytest.mark.parametrize("extra, message", [

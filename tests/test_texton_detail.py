@@ -99,3 +99,14 @@ def test_detail_fades_where_no_texton_reaches():
     d = render_detail(t, torch.ones(1, 1, 3, 4, 4), (32, 32), cutoff=3.0)
     assert d[..., -4:, -4:].abs().max() == 0 and d.abs().max() > 0.5
     assert math.isclose(float(d[0, 0, 6, 6]), 1.0, rel_tol=0.05)  # full weight at the centre
+
+
+def test_sprites_resample_to_another_side():
+    from neuraltex.texton_detail import resize_sprites
+
+    t = random_textons(3)
+    flat = torch.full((1, 3, 3, 4, 4), 0.25)
+    big = split(resize_sprites(attach(t, flat), 4, 8), 4)[1]
+    assert big.shape == (1, 3, 3, 8, 8) and torch.allclose(big, torch.full_like(big, 0.25))
+    blank = split(resize_sprites(t, 4, 8), 4)[1]
+    assert blank.shape == (1, 3, 3, 8, 8) and blank.abs().max() == 0
