@@ -21,6 +21,7 @@ from neuraltex.coords import default_window
 from neuraltex.estimation import Existence, estimate_textons
 from neuraltex.model_config import ModelConfig
 from neuraltex.nn_utils import shrink_short_side
+from neuraltex.segmentation import SegmentationNet
 from neuraltex.splatting import Splat, splat
 from neuraltex.textons import Textons
 
@@ -90,10 +91,12 @@ class TextonAutoencoder(nn.Module):
     def segment(self, image: Tensor) -> Tensor:
         """E_s: image (B, 3, H, W) in [0, 1] -> masks S (B, n, h, w), softmax over the n
         queries, at the estimation resolution."""
+        size = self._estimation_hw(image)
+        if isinstance(self.segmenter, SegmentationNet):
+            return self.segmenter(image * 2 - 1, out_size=size).logits.softmax(dim=1)
         seg = self.segmenter(image * 2 - 1)
         logits = getattr(seg, "logits", seg)  # (B, n, h', w')
-        logits = F.interpolate(logits, size=self._estimation_hw(image), mode="bilinear",
-                               align_corners=False)
+        logits = F.interpolate(logits, size=size, mode="bilinear", align_corners=False)
         return logits.softmax(dim=1)
 
     def render(self, textons: Textons, size: tuple[int, int]) -> Splat:

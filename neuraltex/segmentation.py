@@ -32,7 +32,7 @@ import torch.nn.functional as F
 from torch import nn
 
 from neuraltex.backbones import ResNet50Backbone, SmallBackbone, group_norm
-from neuraltex.nn_utils import pad_to_multiple, resize
+from neuraltex.nn_utils import pad_to_multiple, resize, upsample_crop_resize
 
 
 @dataclass
@@ -68,13 +68,18 @@ class SegmentationConfig:
 
 @dataclass
 class SegmentationOutput:
-    logits: torch.Tensor  # (B, n, H, W) mask logits at input resolution
-    masks: torch.Tensor  # (B, n, H, W) S = softmax over the n queries
+    logits: torch.Tensor  # (B, n, H, W) mask logits at input resolution (or ``out_size``)
     # predictions from the initial queries and after each layer (num_layers + 1, the last is the
     # final one) at stride 4 of the padded input, (B, n, H'/4, W'/4), for deep supervision
     aux_logits: list[torch.Tensor] = field(default_factory=list)
     attn_masks: list[torch.Tensor] = field(default_factory=list)  # per layer, (B, n, L) blocked
     attn_weights: list[torch.Tensor] = field(default_factory=list)  # per layer, (B, heads, n, L)
+
+    @property
+    def masks(self) -> torch.Tensor:
+        """(B, n, H, W) S = softmax over the n queries (computed on demand: training only
+        needs the logits)."""
+        return self.logits.softmax(dim=1)
 
 
 # ----------------------------------------------------------------------------- pixel decoder
@@ -310,7 +315,10 @@ class SegmentationNet(nn.Module):
             sizes.append((h, w))
         return mems, poss, sizes
 
-    def forward(self, image: torch.Tensor, return_attention: bool = False) -> SegmentationOutput:
+    def forward(self, image: torch.Tensor, return_attention: bool = False,
+                out_size: tuple[int, int] | None = None) -> SegmentationOutput:
+        """``out_size``: return the logits bilinearly resized from the input size to this size
+        (computed directly from stride 4, see :func:`upsample_crop_resize`)."""
         b, _, h, w = image.shape
         x = pad_to_multiple(image, self.stride)  # (B, C_in, H', W')
         mask_features, levels = self.pixel_decoder(self.backbone(x))  # (B, C, H'/4, W'/4)
@@ -330,7 +338,7 @@ class SegmentationNet(nn.Module):
             return logits
 
         logits = predict(tgt)
-        out = SegmentationOutput(logits=logits, masks=logits, aux_logits=[logits])
+        out = SegmentationOutput(logits=logits, aux_logits=[logits])
         for i, layer in enumerate(self.layers):
             lvl = i % len(mems)
             blocked = self.blocked_from_logits(logits, sizes[lvl])  # (B, n, L)
@@ -340,6 +348,8 @@ class SegmentationNet(nn.Module):
             if return_attention:
                 out.attn_masks.append(blocked)
                 out.attn_weights.append(weights)
-        out.logits = resize(logits, tuple(x.shape[-2:]))[..., :h, :w]  # (B, n, H, W)
-        out.masks = out.logits.softmax(dim=1)  # S: sums to 1 over queries at every pixel
+        if out_size is None:
+            out.logits = resize(logits, tuple(x.shape[-2:]))[..., :h, :w]  # (B, n, H, W)
+        else:
+            out.logits = upsample_crop_resize(logits, tuple(x.shape[-2:]), (h, w), out_size)
         return out

@@ -31,6 +31,7 @@ class StepSettings:
     patch_size: int  # patch side of the texture loss
     existence: str = "sample"  # "all" during loss.existence_warmup (every delta = 1)
     segmenter_only: bool = False  # loss.segmenter_warmup: only E_s learns the given masks
+    diagnostics: bool = True  # all diag/* numbers (the trainer: only on steps it logs)
 
     def scalars(self) -> dict[str, float]:
         """The weights and the patch size, for the log (``w/<name>``)."""
