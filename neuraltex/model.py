@@ -10,6 +10,7 @@ module only wires them, and the config holds the estimation/splatting settings. 
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 from typing import NamedTuple
 
@@ -139,13 +140,21 @@ def build_model(config: ModelConfig, with_critics: bool = False, info: dict | No
 DEFAULT_MODEL = Path(__file__).resolve().parent / "weights" / "default.safetensors"
 
 
-def load_model(path, device: str | torch.device = "cpu") -> TextonAutoencoder:
-    """Load an inference export (``.safetensors``) for encode/decode; errors are one line."""
+def load_model(path, device: str | torch.device = "cpu",
+               num_queries: int | None = None) -> TextonAutoencoder:
+    """Load an inference export (``.safetensors``) for encode/decode; errors are one line.
+    ``num_queries``: with E_s's queries resampled to this many (:mod:`neuraltex.query_grid`)."""
     from neuraltex.checkpoint import CheckpointError, load_exported_model
 
     state, config, info = load_exported_model(path)
     try:
-        model = build_model(ModelConfig.from_dict(config), info=info)
+        cfg = ModelConfig.from_dict(config)
+        if num_queries and num_queries != cfg.networks().segmentation.num_queries:
+            from neuraltex.query_grid import adapt_queries
+
+            cfg = replace(cfg, num_queries=num_queries)
+            state = adapt_queries(state, num_queries)
+        model = build_model(cfg, info=info)
         model.load_state_dict(state)
     except (KeyError, ValueError, RuntimeError, TypeError) as exc:
         raise CheckpointError(f"{path}: weights do not fit the model they describe "

@@ -26,6 +26,7 @@ from neuraltex.data.splits import benchmark_split, validation_split  # noqa: E40
 from neuraltex.errors import InputError, cli_entry  # noqa: E402
 from neuraltex.evaluation import family_table, score, summary_table, tune  # noqa: E402
 from neuraltex.fileio import write_text_atomic  # noqa: E402
+from neuraltex.limits import MAX_TEXTONS  # noqa: E402
 
 LEGEND = """\
 Metrics (neuraltex/metrics.py): **miou** = Hungarian-matched mean IoU over ground-truth
@@ -47,6 +48,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--model-labels", choices=MODEL_LABELS, default="masks",
                    help="--method model: pixel labels from the E_s masks (stride 4), the splats, "
                         "or the masks refined to image edges by SLIC majority vote")
+    p.add_argument("--num-queries", type=int, default=None,
+                   help="--method model: resample E_s's query grid to this many queries "
+                        "(no training; for dense textures, e.g. 196)")
     p.add_argument("--families", default=None,
                    help="comma list of families to score (default: all), e.g. discs,dots")
     p.add_argument("--tune", action="store_true",
@@ -74,6 +78,8 @@ def main(argv: list[str] | None = None) -> int:
     names = _methods(args.method)
     if args.param is not None and (len(names) != 1 or names[0] == "model"):
         raise InputError("--param needs exactly one baseline --method")
+    if args.num_queries is not None and not 1 <= args.num_queries <= MAX_TEXTONS:
+        raise InputError(f"--num-queries must be in [1, {MAX_TEXTONS}]")
     if args.limit is not None and args.limit < 1:
         raise InputError("--limit must be >= 1")
     progress = not args.quiet
@@ -94,8 +100,10 @@ def main(argv: list[str] | None = None) -> int:
         t0 = time.perf_counter()
         if name == "model":
             segment = get_segmenter("model", checkpoint=args.checkpoint,
-                                    model_labels=args.model_labels)
-            params[name] = f"labels={args.model_labels}"
+                                    model_labels=args.model_labels,
+                                    num_queries=args.num_queries)
+            params[name] = f"labels={args.model_labels}" + (
+                f" queries={args.num_queries}" if args.num_queries else "")
         else:
             m = METHODS[name]
             value = m.default if args.param is None else args.param

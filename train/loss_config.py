@@ -58,6 +58,7 @@ class LossConfig:
     existence_warmup: int = 0  # paper steps (x schedule scale) with delta = 1 for all textons
     segmenter_warmup: int = 0  # paper steps (x schedule scale) training only E_s
     mask_supervision: str = "none"  # none | gt | pseudo
+    mask_points: int | None = None  # pixels per image the mask loss samples; None: all
     equivariance: bool = True
     reshuffle: bool = True
     gan: bool = True

@@ -5,6 +5,10 @@ instances, or Felzenszwalb segments for ``pseudo``; the background counts as one
 matched to one query by the Hungarian algorithm on a dice + BCE cost, then the matched pairs
 are pulled together with the same dice + BCE, and unmatched queries are pushed towards empty
 masks. Masks are the softmax-normalized S of the segmentation head.
+
+With ``points`` the costs and the loss are computed on that many uniformly sampled pixels per
+image instead of all of them (Mask2Former's point-sampled loss, Cheng et al. 2022, 3.3: it
+trains on 112 x 112 sampled points), the same pixels for every query of an image.
 """
 
 from __future__ import annotations
@@ -57,9 +61,11 @@ def pairwise_dice_bce(S: Tensor, index: Tensor, m: int) -> Tensor:
     return dice + bce
 
 
-def mask_supervision_loss(masks: Tensor, labels: Tensor) -> Tensor:
+def mask_supervision_loss(masks: Tensor, labels: Tensor, points: int | None = None,
+                          generator: torch.Generator | None = None) -> Tensor:
     """Hungarian-matched dice + BCE. masks (B, n, H, W) softmax over n; labels (B, H', W')
-    integer segment maps (resized to H x W with nearest neighbour) -> scalar.
+    integer segment maps (resized to H x W with nearest neighbour) -> scalar. ``points``:
+    sample that many pixels per image (None or >= H*W: every pixel).
 
     The costs of all images come from one batched product; only the assignment runs per
     image (scipy)."""
@@ -68,6 +74,10 @@ def mask_supervision_loss(masks: Tensor, labels: Tensor) -> Tensor:
         labels = F.interpolate(labels[:, None].float(), size=(H, W), mode="nearest")[:, 0]
     index, valid = instance_targets(labels.long().to(masks.device), n)  # (B, P), (B, m)
     S = masks.reshape(B, n, H * W)
+    if points and points < H * W:
+        pick = torch.rand(B, H * W, generator=generator).argsort(-1)[:, :points]  # (B, k)
+        pick = pick.to(masks.device)
+        S, index = S.gather(-1, pick[:, None].expand(B, n, points)), index.gather(-1, pick)
     cost = pairwise_dice_bce(S, index, valid.shape[1])  # (B, n, m)
     costs = cost.detach().cpu().numpy()
     matched = torch.zeros(B, n, cost.shape[-1], dtype=torch.bool)

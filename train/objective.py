@@ -61,7 +61,7 @@ class GeneratorObjective(nn.Module):
         given segments (mask supervision gt or pseudo) and nothing is decoded."""
         opt, model = self.loss, self.model
         if w.segmenter_only:
-            return self._segmenter_warmup(images, labels, w)
+            return self._segmenter_warmup(images, labels, w, g)
         size = tuple(images.shape[-2:])
         enc = model.encode(images, existence=w.existence, generator=g, native=False)
         z = enc.textons
@@ -93,20 +93,20 @@ class GeneratorObjective(nn.Module):
             logs["csis"], logs["recon_t"] = csis, recon_t
             total = total + w.csis * csis + recon_t
         if opt.mask_supervision != "none" and labels is not None:
-            logs["mask"] = mask_supervision_loss(enc.masks, labels)
+            logs["mask"] = mask_supervision_loss(enc.masks, labels, opt.mask_points, g)
             total = total + w.mask * logs["mask"]
         logs["total"] = total
         out = {k: float(v.detach()) for k, v in logs.items()}
         out.update(_diagnostics(images, recon.detach(), enc, w.diagnostics))
         return Outputs(total, out, recon, reshuffled, enc)
 
-    def _segmenter_warmup(self, images: Tensor, labels: Tensor | None,
-                          w: StepSettings) -> Outputs:
+    def _segmenter_warmup(self, images: Tensor, labels: Tensor | None, w: StepSettings,
+                          g: torch.Generator) -> Outputs:
         """Warm-up: E_s learns the given segments; nothing is decoded (recon is blank)."""
         if labels is None:
             raise ValueError("a segmenter warm-up needs loss.mask_supervision=gt or pseudo")
         masks = self.model.segment(images)  # (B, n, h, w)
-        mask = mask_supervision_loss(masks, labels)
+        mask = mask_supervision_loss(masks, labels, self.loss.mask_points, g)
         total = w.mask * mask
         logs = {"mask": float(mask.detach()), "total": float(total.detach())}
         if not w.diagnostics:  # a step nobody looks at: no geometry

@@ -127,13 +127,27 @@ def init_from(model: TextonAutoencoder, path, parts) -> dict:
     record: dict = {}
     if path:
         weights, record["init_from"] = load(path)
-        model.load_state_dict(weights)
+        model.load_state_dict(_fit_queries(weights, model))
     for part, p in (parts or {}).items():
         weights, source = load(p)
         prefix = f"{part}."
-        weights = {k[len(prefix):]: v for k, v in weights.items() if k.startswith(prefix)}
+        weights = {k[len(prefix):]: v for k, v in _fit_queries(weights, model).items()
+                   if k.startswith(prefix)}
         if not weights or not hasattr(model, part):
             raise ValueError(f"trainer.init_parts: {p} has no model part {part!r}")
         getattr(model, part).load_state_dict(weights)
         record.setdefault("init_parts", {})[part] = source
     return record
+
+
+def _fit_queries(weights: dict, model: TextonAutoencoder) -> dict:
+    """Weights whose E_s has another number of queries than ``model`` (e.g. the shipped 100
+    for a dense-texture run with ``model.num_queries=196``): queries resampled to the model's
+    anchor grid (:mod:`neuraltex.query_grid`); other weights as they are."""
+    from neuraltex.query_grid import adapt_queries
+
+    n = getattr(model.segmenter, "num_queries", None)
+    theirs = weights.get("segmenter.query_feat")
+    if n is None or theirs is None or theirs.shape[0] == n:
+        return weights
+    return adapt_queries(weights, n)
