@@ -14,7 +14,8 @@ S_q(p) < 1/n, which is shift-invariant like the softmax the rest of the model se
 query whose mask blocks every pixel of a level may attend everywhere on it.
 
 Resolution: any input size; sides are padded (reflection) to a multiple of :attr:`stride` = 32
-internally and outputs are cropped back. Logits are predicted at stride 4 and upsampled
+internally and outputs are cropped back. Logits are predicted at stride 4 (the final ones at
+stride 2 or 1 with ``mask_stride``, :class:`neuraltex.mask_upsampler.MaskUpsampler`) and upsampled
 bilinearly to the input size. The ResNet-50 backbone keeps torchvision's BatchNorm, so in
 training mode it needs batch * (H/32) * (W/32) > 1; the small backbone uses GroupNorm.
 At 32x32 the stride-32 memory is a single token: its cross-attention softmax is then constant,
@@ -32,6 +33,7 @@ import torch.nn.functional as F
 from torch import nn
 
 from neuraltex.backbones import ResNet50Backbone, SmallBackbone, group_norm
+from neuraltex.mask_upsampler import MaskUpsampler
 from neuraltex.nn_utils import pad_to_multiple, resize, upsample_crop_resize
 
 
@@ -51,6 +53,7 @@ class SegmentationConfig:
     attn_mask_mode: Literal["sigmoid", "softmax"] = "sigmoid"
     mask_pos_scale: float = 0.0  # weak positional encoding added to the mask features
     anchor_prior: bool = False  # queries start as a grid of soft local masks (see AnchorPrior)
+    mask_stride: int = 4  # final mask logits at stride 4 (FPN), or 2 / 1 (MaskUpsampler)
 
     @classmethod
     def preset(cls, name: str) -> SegmentationConfig:
@@ -69,8 +72,9 @@ class SegmentationConfig:
 @dataclass
 class SegmentationOutput:
     logits: torch.Tensor  # (B, n, H, W) mask logits at input resolution (or ``out_size``)
-    # predictions from the initial queries and after each layer (num_layers + 1, the last is the
-    # final one) at stride 4 of the padded input, (B, n, H'/4, W'/4), for deep supervision
+    # predictions from the initial queries and after each layer (num_layers + 1, the last is
+    # the final one unless mask_stride < 4) at stride 4 of the padded input, (B, n, H'/4, W'/4),
+    # for deep supervision
     aux_logits: list[torch.Tensor] = field(default_factory=list)
     attn_masks: list[torch.Tensor] = field(default_factory=list)  # per layer, (B, n, L) blocked
     attn_weights: list[torch.Tensor] = field(default_factory=list)  # per layer, (B, heads, n, L)
@@ -267,6 +271,7 @@ class SegmentationNet(nn.Module):
         attn_mask_mode: Literal["sigmoid", "softmax"] = "sigmoid",
         mask_pos_scale: float = 0.0,
         anchor_prior: bool = False,
+        mask_stride: int = 4,
     ) -> None:
         super().__init__()
         if backbone == "resnet50":
@@ -288,6 +293,8 @@ class SegmentationNet(nn.Module):
         self.num_queries, self.hidden_dim = num_queries, hidden_dim
         self.attn_mask_mode, self.mask_pos_scale = attn_mask_mode, mask_pos_scale
         self.anchor_prior = AnchorPrior(num_queries, hidden_dim) if anchor_prior else None
+        self.upsampler = (MaskUpsampler(in_channels, mask_dim, mask_stride)
+                          if mask_stride != 4 else None)
 
     @classmethod
     def from_config(cls, cfg: SegmentationConfig) -> SegmentationNet:
@@ -348,6 +355,12 @@ class SegmentationNet(nn.Module):
             if return_attention:
                 out.attn_masks.append(blocked)
                 out.attn_weights.append(weights)
+        if self.upsampler is not None:  # the final masks at stride 2 or 1
+            fine = self.upsampler(mask_features, x)  # (B, C, H'/s, W'/s)
+            # the prior stays a stride-4 map, upsampled: a fresh upsampler then changes nothing
+            logits = self.mask_head(tgt, fine) + F.interpolate(
+                logits - self.mask_head(tgt, mask_features), size=fine.shape[-2:],
+                mode="bilinear", align_corners=False)
         if out_size is None:
             out.logits = resize(logits, tuple(x.shape[-2:]))[..., :h, :w]  # (B, n, H, W)
         else:

@@ -112,3 +112,42 @@ def test_init_from_resamples_queries(tmp_path):
     for name, p in dst.state_dict().items():
         if "query_" not in name:
             assert torch.equal(p, theirs[name]), name
+
+
+def test_mask_upsampler_starts_as_bilinear_and_learns():
+    from neuraltex.mask_upsampler import MaskUpsampler
+
+    up = MaskUpsampler(3, 8, 2)
+    feats, image = torch.randn(2, 8, 6, 5), torch.rand(2, 3, 24, 20)
+    ref = F.interpolate(feats, size=(12, 10), mode="bilinear", align_corners=False)
+    assert torch.equal(up(feats, image), ref)
+    up(feats, image).square().sum().backward()
+    assert up.fuse.weight.grad.abs().sum() > 0  # the zero-initialized correction learns
+    with pytest.raises(ValueError):
+        MaskUpsampler(3, 8, 3)
+
+
+@pytest.mark.parametrize("stride", [1, 2])
+def test_fine_mask_stride_segmenter(tiny, stride):
+    from dataclasses import replace
+
+    seg = SegmentationNet.from_config(replace(tiny.segmentation, mask_stride=stride))
+    out = seg(torch.rand(2, 3, 40, 36))
+    assert out.logits.shape == (2, tiny.segmentation.num_queries, 40, 36)
+    assert out.aux_logits[-1].shape[-2:] == (16, 16)  # deep supervision stays at stride 4
+    out.logits.logsumexp(1).mean().backward()
+    assert seg.upsampler.fuse.weight.grad.abs().sum() > 0
+
+
+def test_mask_stride_is_a_model_setting_old_exports_default_to_4(tmp_path):
+    from neuraltex.checkpoint import export_model
+    from neuraltex.model import DEFAULT_MODEL
+
+    assert load_model(DEFAULT_MODEL).segmenter.upsampler is None  # the shipped weights
+    cfg = ModelConfig(mask_stride=2)
+    model = build_model(cfg)
+    export_model(tmp_path / "m.safetensors", model.state_dict(), cfg)
+    back = load_model(tmp_path / "m.safetensors")
+    assert back.segmenter.upsampler is not None and back.config.mask_stride == 2
+    with pytest.raises(ValueError):
+        ModelConfig.from_dict({"mask_stride": 3})
