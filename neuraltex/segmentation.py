@@ -243,8 +243,9 @@ class AnchorPrior(nn.Module):
         xs = (torch.arange(w, device=queries.device) + 0.5) / (w * valid[1])
         dx = (xs.to(queries) - centre[..., 0, None]) / self.cell[0]  # (B, n, w)
         dy = (ys.to(queries) - centre[..., 1, None]) / self.cell[1]  # (B, n, h)
-        d2 = dy[..., :, None] ** 2 + dx[..., None, :] ** 2  # (B, n, h, w)
-        return -d2 / (2 * spread[..., None, None] ** 2)
+        inv = 1 / (2 * spread[..., None] ** 2)  # (B, n, 1)
+        # separable: one full-size (B, n, h, w) op instead of four
+        return -(dy ** 2 * inv)[..., :, None] - (dx ** 2 * inv)[..., None, :]
 
 
 # ----------------------------------------------------------------------------- the head
