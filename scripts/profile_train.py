@@ -149,12 +149,13 @@ def step_settings(parts, cfg):
     return settings
 
 
-def profile(recipe: str, size: int, batch: int, steps: int, extra: list[str]):
+def profile(recipe: str, size: int, batch: int, steps: int, extra: list[str],
+            root: Path = ROOT):
     """(ms per part per step, wall s per step) of ``steps`` profiled steps after a warm-up."""
     from train.data import batches, build_dataset
     from train.setup import build
 
-    cfg = compose(recipe, size, batch, extra)
+    cfg = compose(recipe, size, batch, extra, root)
     torch.manual_seed(0)
     parts = build(cfg, torch.device("cpu"))
     label_parts(parts)
@@ -206,19 +207,26 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--steps", type=int, default=3, help="profiled steps after one warm-up")
     ap.add_argument("--set", nargs="*", default=[], help="extra Hydra overrides, key=value")
     ap.add_argument("--markdown", default=None, help="also write the table to this file")
+    ap.add_argument("--root", default=None, help="profile the code and configs of another "
+                    "checkout (e.g. main before the speed-ups) instead of this one")
     args = ap.parse_args(argv)
+    root = Path(args.root).resolve() if args.root else ROOT
+    sys.path.insert(0, str(root))
     torch.set_num_threads(1)
     label_step_phases()
     results = {}
     for recipe in args.recipes.split(","):
         for size in args.sizes:
             results[f"{recipe} {size} px"] = profile(recipe, size, args.batch, args.steps,
-                                                     args.set)
+                                                     args.set, root)
             print(f"{recipe} {size} px: {results[f'{recipe} {size} px'][1]:.3f} s/step",
                   file=sys.stderr)
     command = "python scripts/profile_train.py " + " ".join(argv if argv is not None
                                                              else sys.argv[1:])
-    text = (f"Share of a training step per part (`{command.strip()}`; torch "
+    import train
+
+    tree = Path(train.__file__).resolve().parents[1]
+    text = (f"Share of a training step per part (`{command.strip()}`, code of {tree}; torch "
             f"{torch.__version__}, 1 thread, batch {args.batch}, mean of {args.steps} steps)."
             f"\n\n{table(results)}\n")
     print(text)
@@ -230,6 +238,5 @@ def main(argv: list[str] | None = None) -> int:
 
 
 if __name__ == "__main__":
-    sys.path.insert(0, str(ROOT))
     with contextlib.suppress(KeyboardInterrupt):
         raise SystemExit(main())
