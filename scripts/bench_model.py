@@ -10,7 +10,9 @@ what 64 / 128 px mean) of the code in OLD_TREE (e.g. a checkout of main before t
 and of this tree in the same run: child processes alternate old, new, old, new ... for
 ``--rounds`` rounds of ``--round-steps`` steps each (after one warm-up step per process), one
 torch thread each; the medians of the per-step wall times (batch generation included) and
-their ratio are printed. Interleaving keeps a busy shared machine's load out of the ratio.
+their ratio are printed, for wall time and for the training process's CPU time (steadier on a
+busy shared machine; a data worker's CPU is not in it). Interleaving keeps the machine's load
+out of the ratios as far as it can.
 
 Training: full steps of the training program (all losses on: reconstruction + LPIPS, entropy,
 compactness, reshuffle + texture + patch GAN, equivariance consistency + transformed
@@ -118,17 +120,19 @@ def recipe_step_times(root: str, recipe: str, size: int, batch: int, steps: int,
     settings = step_settings(parts, cfg)
     times = []
     for step in range(1, steps + 2):  # odd first step: the warm-up skips the lazy R1
-        t0 = time.perf_counter()
+        t0, c0 = time.perf_counter(), time.process_time()
         g = torch.Generator().manual_seed(step)
         images, labels = _batch(next(data), cfg, parts, g)
         train_step(parts, images, labels, settings, step, g)
-        times.append(time.perf_counter() - t0)
+        times.append((time.perf_counter() - t0, time.process_time() - c0))
     return times[1:]
 
 
-def compare(old: str, recipe: str, size: int, args) -> tuple[float, float]:
-    """Median step seconds of (old tree, this tree), child processes interleaved."""
-    runs: dict[str, list[float]] = {"old": [], "new": []}
+def compare(old: str, recipe: str, size: int, args) -> dict[str, tuple[float, float]]:
+    """{"old": ..., "new": ...}: median (wall, CPU) seconds per step of the old tree and this
+    one, child processes interleaved. CPU = the training process's own CPU time (a data
+    worker's is not in it), the steadier number on a shared machine."""
+    runs: dict[str, list] = {"old": [], "new": []}
     for _ in range(args.rounds):
         for name, root in (("old", old), ("new", str(HERE.parent))):
             cmd = [sys.executable, str(HERE / "bench_model.py"), "--child", root, "--recipes",
@@ -143,7 +147,8 @@ def compare(old: str, recipe: str, size: int, args) -> tuple[float, float]:
             if line["root"] != root:
                 raise SystemExit(f"bench child imported {line['root']}, not {root}")
             runs[name] += line["times"]
-    return statistics.median(runs["old"]), statistics.median(runs["new"])
+    return {k: (statistics.median(w for w, _ in v), statistics.median(c for _, c in v))
+            for k, v in runs.items()}
 
 
 def main() -> None:
@@ -178,12 +183,16 @@ def main() -> None:
     if args.compare:
         print(f"torch {torch.__version__}, 1 thread per process, CPU; batch {args.batch}; "
               f"median s/step over {args.rounds} x {args.round_steps} steps, interleaved")
-        print(f"{'recipe':>16} {'old s/step':>11} {'new s/step':>11} {'speed-up':>9}")
+        print("| recipe | old wall s/step | new wall s/step | speed-up (wall) | old CPU s/step "
+              "| new CPU s/step | speed-up (CPU) |\n|---|---:|---:|---:|---:|---:|---:|")
         for recipe in args.recipes.split(","):
             for size in args.sizes:
-                old, new = compare(args.compare, recipe, size, args)
-                print(f"{recipe + f' {size} px':>16} {old:11.3f} {new:11.3f} {old / new:8.2f}x",
-                      flush=True)
+                r = compare(args.compare, recipe, size, args)
+                cells = []
+                for i in (0, 1):
+                    old, new = r["old"][i], r["new"][i]
+                    cells += [f"{old:.3f}", f"{new:.3f}", f"**{old / new:.2f}x**"]
+                print(f"| {recipe} {size} px | " + " | ".join(cells) + " |", flush=True)
         return
     print(f"torch {torch.__version__}, {torch.get_num_threads()} threads, CPU")
     print(f"training steps ({args.preset}, batch {args.batch}, all losses): target >= 2 steps/s "
