@@ -26,6 +26,7 @@ import time
 from collections import defaultdict
 from dataclasses import replace
 from pathlib import Path
+from unittest import mock
 
 import torch
 
@@ -64,9 +65,9 @@ def _labelled(fn, name: str):
     return wrapper
 
 
-def label_parts(parts) -> None:
+def label_parts(parts, stack: contextlib.ExitStack) -> None:
     """Wrap the parts of a step in record_function labels (modules: their forward; functions:
-    at the place the objective calls them)."""
+    at the place the objective calls them, restored when ``stack`` closes)."""
     import neuraltex.model as model_mod
     import train.mask_supervision as ms
     import train.objective as obj
@@ -92,7 +93,7 @@ def label_parts(parts) -> None:
         (obj, "consistency_loss", "loss csis"), (obj, "warp_images", "warp (equivariance)"),
         (obj, "_diagnostics", "diagnostics"), (obj, "d_r1_loss", "loss R1"),
     ]:
-        setattr(where, attr, _labelled(getattr(where, attr), name))
+        stack.enter_context(mock.patch.object(where, attr, _labelled(getattr(where, attr), name)))
 
 
 def one_step(parts, cfg, data, step: int, settings) -> None:
@@ -107,8 +108,9 @@ def one_step(parts, cfg, data, step: int, settings) -> None:
         train_step(parts, images, labels, settings, step, g)
 
 
-def label_step_phases() -> None:
-    """Backward passes and optimizer steps of train_step, labelled through torch's own calls."""
+def label_step_phases(stack: contextlib.ExitStack) -> None:
+    """Backward passes and optimizer steps of train_step, labelled through torch's own calls
+    (restored when ``stack`` closes)."""
     rf = torch.profiler.record_function
     backward, step = torch.Tensor.backward, torch.optim.Adam.step
 
@@ -120,8 +122,8 @@ def label_step_phases() -> None:
         with rf("optimizer"):
             return step(self, *a, **k)
 
-    torch.Tensor.backward = labelled_backward
-    torch.optim.Adam.step = labelled_step
+    stack.enter_context(mock.patch.object(torch.Tensor, "backward", labelled_backward))
+    stack.enter_context(mock.patch.object(torch.optim.Adam, "step", labelled_step))
 
 
 def exclusive_times(prof, labels: set[str]) -> dict[str, float]:
@@ -158,12 +160,13 @@ def profile(recipe: str, size: int, batch: int, steps: int, extra: list[str],
     cfg = compose(recipe, size, batch, extra, root)
     torch.manual_seed(0)
     parts = build(cfg, torch.device("cpu"))
-    label_parts(parts)
+    stack = contextlib.ExitStack()
+    label_parts(parts, stack)
     dataset = build_dataset(cfg.data, 1000 * batch)
     data = batches(dataset, batch, 0, 0, 1, cfg.data.num_workers)
     settings = step_settings(parts, cfg)
     one_step(parts, cfg, data, 1, settings)  # warm-up (odd step: no lazy R1)
-    with torch.profiler.profile(activities=[torch.profiler.ProfilerActivity.CPU]) as prof:
+    with stack, torch.profiler.profile(activities=[torch.profiler.ProfilerActivity.CPU]) as prof:
         t0 = time.perf_counter()
         for s in range(steps):
             one_step(parts, cfg, data, s + 2, settings)
@@ -213,14 +216,14 @@ def main(argv: list[str] | None = None) -> int:
     root = Path(args.root).resolve() if args.root else ROOT
     sys.path.insert(0, str(root))
     torch.set_num_threads(1)
-    label_step_phases()
     results = {}
-    for recipe in args.recipes.split(","):
-        for size in args.sizes:
-            results[f"{recipe} {size} px"] = profile(recipe, size, args.batch, args.steps,
-                                                     args.set, root)
-            print(f"{recipe} {size} px: {results[f'{recipe} {size} px'][1]:.3f} s/step",
-                  file=sys.stderr)
+    with contextlib.ExitStack() as stack:
+        label_step_phases(stack)
+        for recipe in args.recipes.split(","):
+            for size in args.sizes:
+                name = f"{recipe} {size} px"
+                results[name] = profile(recipe, size, args.batch, args.steps, args.set, root)
+                print(f"{name}: {results[name][1]:.3f} s/step", file=sys.stderr)
     command = "python scripts/profile_train.py " + " ".join(argv if argv is not None
                                                              else sys.argv[1:])
     import train
@@ -238,5 +241,4 @@ def main(argv: list[str] | None = None) -> int:
 
 
 if __name__ == "__main__":
-    with contextlib.suppress(KeyboardInterrupt):
-        raise SystemExit(main())
+    raise SystemExit(main())

@@ -151,3 +151,30 @@ def test_mask_stride_is_a_model_setting_old_exports_default_to_4(tmp_path):
     assert back.segmenter.upsampler is not None and back.config.mask_stride == 2
     with pytest.raises(ValueError):
         ModelConfig.from_dict({"mask_stride": 3})
+
+
+def test_profile_script_table_and_restores_what_it_labels(tmp_path):
+    import sys
+    from pathlib import Path
+
+    import train.objective
+
+    scripts = Path(__file__).resolve().parents[1] / "scripts"
+    sys.path.insert(0, str(scripts))
+    try:
+        import profile_train
+    finally:
+        sys.path.pop(0)
+    backward, loss = torch.Tensor.backward, train.objective.mask_supervision_loss
+    md = tmp_path / "p.md"
+    assert profile_train.main(["--recipes", "segmenter", "--sizes", "64", "--batch", "2",
+                               "--steps", "1", "--set", "data.num_workers=0",
+                               "--markdown", str(md)]) == 0
+    text = md.read_text()
+    for row in ("| backward |", "| E_s transformer layers |", "| loss mask: pairwise cost |",
+                "| optimizer |", "**other**"):
+        assert row in text, row
+    shares = [float(c.strip(" %")) for line in text.splitlines() if line.startswith("| ")
+              and "%" in line for c in line.split("|")[2:-1] if c.strip()]
+    assert abs(sum(shares) - 100) < 1.0  # exclusive shares add up
+    assert torch.Tensor.backward is backward and train.objective.mask_supervision_loss is loss
