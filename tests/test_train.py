@@ -226,3 +226,9 @@ def test_fine_mask_stride_trains_and_exports(tmp_path):
              "loss.mask_supervision=gt"))
     model = load_model(tmp_path / "model.safetensors")
     assert model.config.mask_stride == 2 and model.segmenter.upsampler is not None
+
+
+def test_bfloat16_autocast_on_cpu(tmp_path):
+    """trainer.amp on CPU: the estimation runs in float32 (no bfloat16 LU), the step is finite."""
+    logs = run(_cfg(tmp_path, "trainer.max_steps=1", "trainer.amp=true", "trainer.export=null"))
+    assert all(torch.isfinite(torch.tensor(v)) for v in logs.values())

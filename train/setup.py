@@ -31,7 +31,7 @@ class Parts:
     opt_d: torch.optim.Optimizer
     loss: LossConfig
     device: torch.device
-    amp: bool = False  # bfloat16 autocast (CUDA only)
+    amp: bool = False  # bfloat16 autocast (CUDA, or a CPU with bf16 instructions)
 
 
 @dataclass
@@ -68,7 +68,7 @@ def build(cfg: DictConfig, device: torch.device, world: int = 1) -> Parts:
     opt_d = torch.optim.Adam(critics.parameters(), lr=T.d_lr, betas=tuple(T.betas))
     wrap = _ddp if world > 1 else (lambda m: m)
     return Parts(model, critics, gen, wrap(gen), wrap(critics), opt_g, opt_d, loss, device,
-                 amp=bool(T.amp) and device.type == "cuda")
+                 amp=bool(T.amp))
 
 
 def _ddp(module: torch.nn.Module) -> DDP:
