@@ -110,27 +110,35 @@ def kmeans_segmenter(k: float, fit_pixels: int = 4096) -> Segmenter:
     return segment
 
 
-def model_segmenter(checkpoint: str, device: str = "cpu", labels: str = "masks") -> Segmenter:
+MODEL_LABELS = ("masks", "splats", "refined")
+
+
+def model_segmenter(checkpoint: str, device: str = "cpu", labels: str = "masks",
+                    num_queries: int | None = None) -> Segmenter:
     """The learned texton model as a segmenter: the one hook the autoencoder plugs into.
 
     ``labels="masks"``: each pixel goes to the query whose mask S (E_s) is largest there, i.e.
     the segment its texton was estimated from (eqs. 4.3-4.7); pixels of queries that are not
     effective (p <= 0.5) are 0 (background). ``labels="splats"``: the texton with the largest
     composited splat weight (eq. 4.13), i.e. what the decoder sees; pixels no texton reaches
-    are 0.
+    are 0. ``num_queries``: E_s's queries resampled to that many (:mod:`neuraltex.query_grid`).
+    ``labels="refined"``: the ``masks`` labels with every fine SLIC superpixel of the
+    full-resolution image given its majority label (:func:`neuraltex.segmenters.refine_to_image`,
+    4 superpixels per label), so boundaries follow image edges instead of E_s's stride 4.
     """
     import torch
     import torch.nn.functional as F
 
     from neuraltex.model import DEFAULT_MODEL, load_model
+    from neuraltex.segmenters import refine_to_image
     from neuraltex.splatting import opacity_maps
 
     checkpoint = checkpoint or DEFAULT_MODEL  # no --checkpoint: the shipped default model
     if not Path(checkpoint).exists():
         raise InputError(f"--method model: no model at {checkpoint}; pass --checkpoint PATH")
-    if labels not in ("masks", "splats"):
-        raise ValueError(f"labels must be 'masks' or 'splats', got {labels!r}")
-    model = load_model(checkpoint, device)
+    if labels not in MODEL_LABELS:
+        raise ValueError(f"labels must be one of {', '.join(MODEL_LABELS)}, got {labels!r}")
+    model = load_model(checkpoint, device, num_queries=num_queries)
 
     @torch.no_grad()
     def segment(image: np.ndarray) -> np.ndarray:
@@ -138,11 +146,15 @@ def model_segmenter(checkpoint: str, device: str = "cpu", labels: str = "masks")
         x = torch.from_numpy(np.ascontiguousarray(image, dtype=np.float32)).permute(2, 0, 1)
         H, W = x.shape[-2:]
         enc = model.encode(x[None].to(device))
-        if labels == "masks":
+        if labels != "splats":
             masks = F.interpolate(enc.masks, size=(H, W), mode="bilinear", align_corners=False)
             best = masks[0].argmax(0)  # (H, W)
             effective = enc.textons.p[0] > 0.5  # (n,)
             label = torch.where(effective[best], best + 1, torch.zeros_like(best))
+            if labels == "refined":
+                coarse = label.cpu().numpy()
+                n = len(np.unique(coarse))
+                label = torch.from_numpy(refine_to_image(coarse, image.astype(np.float64), 4 * n))
         else:
             weights = opacity_maps(enc.textons, (H, W), cutoff=model.cutoff)[0]  # (K, H, W)
             label = weights.argmax(0) + 1
@@ -175,10 +187,12 @@ METHODS: dict[str, Method] = {m.name: m for m in [
 
 
 def get_segmenter(name: str, value: float | None = None,
-                  checkpoint: str | None = None) -> Segmenter:
-    """Build method ``name`` (a key of ``METHODS`` or ``"model"``) at ``value``."""
+                  checkpoint: str | None = None, model_labels: str = "masks",
+                  num_queries: int | None = None) -> Segmenter:
+    """Build method ``name`` (a key of ``METHODS`` or ``"model"``, with ``model_labels`` and
+    ``num_queries`` as in :func:`model_segmenter`) at ``value``."""
     if name == "model":
-        return model_segmenter(checkpoint or "")
+        return model_segmenter(checkpoint or "", labels=model_labels, num_queries=num_queries)
     if name not in METHODS:
         raise InputError(f"unknown method {name!r}; choose from "
                          f"{', '.join([*METHODS, 'model'])}")

@@ -47,6 +47,11 @@ def estimate_textons(
     """
     if masks.dim() != 4:
         raise ValueError(f"masks must be (B, n, H, W), got {tuple(masks.shape)}")
+    if torch.is_autocast_enabled(masks.device.type):  # moments in float32 (no bf16 LU/det)
+        with torch.autocast(masks.device.type, enabled=False):
+            return estimate_textons(masks.float(), appearance.float(), direction.float(),
+                                    existence=existence, temperature=temperature, eps=eps,
+                                    window=window, generator=generator)
     B, n, H, W = masks.shape
     for name, x, ch in (("appearance", appearance, None), ("direction", direction, 2)):
         if x.dim() != 4 or x.shape[0] != B or x.shape[2:] != (H, W) or (ch and x.shape[1] != ch):

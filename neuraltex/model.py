@@ -10,6 +10,7 @@ module only wires them, and the config holds the estimation/splatting settings. 
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 from typing import NamedTuple
 
@@ -21,6 +22,7 @@ from neuraltex.coords import Window, default_window
 from neuraltex.estimation import Existence, estimate_textons
 from neuraltex.model_config import ModelConfig
 from neuraltex.nn_utils import shrink_short_side
+from neuraltex.segmentation import SegmentationNet
 from neuraltex.splatting import Splat, splat
 from neuraltex.texton_detail import DetailSampler, split
 from neuraltex.textons import Textons
@@ -91,10 +93,12 @@ class TextonAutoencoder(nn.Module):
     def segment(self, image: Tensor) -> Tensor:
         """E_s: image (B, 3, H, W) in [0, 1] -> masks S (B, n, h, w), softmax over the n
         queries, at the estimation resolution."""
+        size = self._estimation_hw(image)
+        if isinstance(self.segmenter, SegmentationNet):
+            return self.segmenter(image * 2 - 1, out_size=size).logits.softmax(dim=1)
         seg = self.segmenter(image * 2 - 1)
         logits = getattr(seg, "logits", seg)  # (B, n, h', w')
-        logits = F.interpolate(logits, size=self._estimation_hw(image), mode="bilinear",
-                               align_corners=False)
+        logits = F.interpolate(logits, size=size, mode="bilinear", align_corners=False)
         return logits.softmax(dim=1)
 
     def render(self, textons: Textons, size: tuple[int, int]) -> Splat:
@@ -146,13 +150,21 @@ def build_model(config: ModelConfig, with_critics: bool = False, info: dict | No
 DEFAULT_MODEL = Path(__file__).resolve().parent / "weights" / "default.safetensors"
 
 
-def load_model(path, device: str | torch.device = "cpu") -> TextonAutoencoder:
-    """Load an inference export (``.safetensors``) for encode/decode; errors are one line."""
+def load_model(path, device: str | torch.device = "cpu",
+               num_queries: int | None = None) -> TextonAutoencoder:
+    """Load an inference export (``.safetensors``) for encode/decode; errors are one line.
+    ``num_queries``: with E_s's queries resampled to this many (:mod:`neuraltex.query_grid`)."""
     from neuraltex.checkpoint import CheckpointError, load_exported_model
 
     state, config, info = load_exported_model(path)
     try:
-        model = build_model(ModelConfig.from_dict(config), info=info)
+        cfg = ModelConfig.from_dict(config)
+        if num_queries and num_queries != cfg.networks().segmentation.num_queries:
+            from neuraltex.query_grid import adapt_queries
+
+            cfg = replace(cfg, num_queries=num_queries)
+            state = adapt_queries(state, num_queries)
+        model = build_model(cfg, info=info)
         model.load_state_dict(state)
     except (KeyError, ValueError, RuntimeError, TypeError) as exc:
         raise CheckpointError(f"{path}: weights do not fit the model they describe "

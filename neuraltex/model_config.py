@@ -22,6 +22,7 @@ class ModelConfig:
     preset: str = "tiny"  # tiny | small | paper
     num_queries: int | None = None  # n = max textons per image; None: the preset's
     anchor_prior: bool | None = None  # grid-anchored queries; None: the preset's
+    mask_stride: int | None = None  # final E_s mask logits at stride 4, 2 or 1; None: 4
     image_size: int | None = None  # training resolution (short side); None: any
     estimation_size: int | None = None  # where masks meet features in E_g; None: input size
     eps: float = 1e-5  # covariance regularizer of eq. 4.4
@@ -52,6 +53,8 @@ class ModelConfig:
             nets.segmentation.num_queries = int(self.num_queries)
         if self.anchor_prior is not None:
             nets.segmentation.anchor_prior = bool(self.anchor_prior)
+        if self.mask_stride:
+            nets.segmentation.mask_stride = int(self.mask_stride)
         return nets
 
 
@@ -71,6 +74,11 @@ def _check(name: str, value: Any) -> None:
     if name == "preset":
         if not isinstance(value, str):
             raise ValueError(f"model setting 'preset' must be a string, got {type(value).__name__}")
+        return
+    if name == "mask_stride":
+        if value is not None and (isinstance(value, bool) or value not in (1, 2, 4)):
+            raise ValueError(f"model setting 'mask_stride' must be 1, 2, 4 or null, got "
+                             f"{str(value)[:40]}")
         return
     if name == "anchor_prior":
         if value is not None and not isinstance(value, bool):

@@ -14,7 +14,8 @@ S_q(p) < 1/n, which is shift-invariant like the softmax the rest of the model se
 query whose mask blocks every pixel of a level may attend everywhere on it.
 
 Resolution: any input size; sides are padded (reflection) to a multiple of :attr:`stride` = 32
-internally and outputs are cropped back. Logits are predicted at stride 4 and upsampled
+internally and outputs are cropped back. Logits are predicted at stride 4 (the final ones at
+stride 2 or 1 with ``mask_stride``, :class:`neuraltex.mask_upsampler.MaskUpsampler`) and upsampled
 bilinearly to the input size. The ResNet-50 backbone keeps torchvision's BatchNorm, so in
 training mode it needs batch * (H/32) * (W/32) > 1; the small backbone uses GroupNorm.
 At 32x32 the stride-32 memory is a single token: its cross-attention softmax is then constant,
@@ -32,7 +33,8 @@ import torch.nn.functional as F
 from torch import nn
 
 from neuraltex.backbones import ResNet50Backbone, SmallBackbone, group_norm
-from neuraltex.nn_utils import pad_to_multiple, resize
+from neuraltex.mask_upsampler import MaskUpsampler
+from neuraltex.nn_utils import pad_to_multiple, resize, upsample_crop_resize
 
 
 @dataclass
@@ -51,6 +53,7 @@ class SegmentationConfig:
     attn_mask_mode: Literal["sigmoid", "softmax"] = "sigmoid"
     mask_pos_scale: float = 0.0  # weak positional encoding added to the mask features
     anchor_prior: bool = False  # queries start as a grid of soft local masks (see AnchorPrior)
+    mask_stride: int = 4  # final mask logits at stride 4 (FPN), or 2 / 1 (MaskUpsampler)
 
     @classmethod
     def preset(cls, name: str) -> SegmentationConfig:
@@ -68,13 +71,19 @@ class SegmentationConfig:
 
 @dataclass
 class SegmentationOutput:
-    logits: torch.Tensor  # (B, n, H, W) mask logits at input resolution
-    masks: torch.Tensor  # (B, n, H, W) S = softmax over the n queries
-    # predictions from the initial queries and after each layer (num_layers + 1, the last is the
-    # final one) at stride 4 of the padded input, (B, n, H'/4, W'/4), for deep supervision
+    logits: torch.Tensor  # (B, n, H, W) mask logits at input resolution (or ``out_size``)
+    # predictions from the initial queries and after each layer (num_layers + 1, the last is
+    # the final one unless mask_stride < 4) at stride 4 of the padded input, (B, n, H'/4, W'/4),
+    # for deep supervision
     aux_logits: list[torch.Tensor] = field(default_factory=list)
     attn_masks: list[torch.Tensor] = field(default_factory=list)  # per layer, (B, n, L) blocked
     attn_weights: list[torch.Tensor] = field(default_factory=list)  # per layer, (B, heads, n, L)
+
+    @property
+    def masks(self) -> torch.Tensor:
+        """(B, n, H, W) S = softmax over the n queries (computed on demand: training only
+        needs the logits)."""
+        return self.logits.softmax(dim=1)
 
 
 # ----------------------------------------------------------------------------- pixel decoder
@@ -234,8 +243,9 @@ class AnchorPrior(nn.Module):
         xs = (torch.arange(w, device=queries.device) + 0.5) / (w * valid[1])
         dx = (xs.to(queries) - centre[..., 0, None]) / self.cell[0]  # (B, n, w)
         dy = (ys.to(queries) - centre[..., 1, None]) / self.cell[1]  # (B, n, h)
-        d2 = dy[..., :, None] ** 2 + dx[..., None, :] ** 2  # (B, n, h, w)
-        return -d2 / (2 * spread[..., None, None] ** 2)
+        inv = 1 / (2 * spread[..., None] ** 2)  # (B, n, 1)
+        # separable: one full-size (B, n, h, w) op instead of four
+        return -(dy ** 2 * inv)[..., :, None] - (dx ** 2 * inv)[..., None, :]
 
 
 # ----------------------------------------------------------------------------- the head
@@ -262,6 +272,7 @@ class SegmentationNet(nn.Module):
         attn_mask_mode: Literal["sigmoid", "softmax"] = "sigmoid",
         mask_pos_scale: float = 0.0,
         anchor_prior: bool = False,
+        mask_stride: int = 4,
     ) -> None:
         super().__init__()
         if backbone == "resnet50":
@@ -283,6 +294,8 @@ class SegmentationNet(nn.Module):
         self.num_queries, self.hidden_dim = num_queries, hidden_dim
         self.attn_mask_mode, self.mask_pos_scale = attn_mask_mode, mask_pos_scale
         self.anchor_prior = AnchorPrior(num_queries, hidden_dim) if anchor_prior else None
+        self.upsampler = (MaskUpsampler(in_channels, mask_dim, mask_stride)
+                          if mask_stride != 4 else None)
 
     @classmethod
     def from_config(cls, cfg: SegmentationConfig) -> SegmentationNet:
@@ -310,7 +323,10 @@ class SegmentationNet(nn.Module):
             sizes.append((h, w))
         return mems, poss, sizes
 
-    def forward(self, image: torch.Tensor, return_attention: bool = False) -> SegmentationOutput:
+    def forward(self, image: torch.Tensor, return_attention: bool = False,
+                out_size: tuple[int, int] | None = None) -> SegmentationOutput:
+        """``out_size``: return the logits bilinearly resized from the input size to this size
+        (computed directly from stride 4, see :func:`upsample_crop_resize`)."""
         b, _, h, w = image.shape
         x = pad_to_multiple(image, self.stride)  # (B, C_in, H', W')
         mask_features, levels = self.pixel_decoder(self.backbone(x))  # (B, C, H'/4, W'/4)
@@ -330,7 +346,7 @@ class SegmentationNet(nn.Module):
             return logits
 
         logits = predict(tgt)
-        out = SegmentationOutput(logits=logits, masks=logits, aux_logits=[logits])
+        out = SegmentationOutput(logits=logits, aux_logits=[logits])
         for i, layer in enumerate(self.layers):
             lvl = i % len(mems)
             blocked = self.blocked_from_logits(logits, sizes[lvl])  # (B, n, L)
@@ -340,6 +356,14 @@ class SegmentationNet(nn.Module):
             if return_attention:
                 out.attn_masks.append(blocked)
                 out.attn_weights.append(weights)
-        out.logits = resize(logits, tuple(x.shape[-2:]))[..., :h, :w]  # (B, n, H, W)
-        out.masks = out.logits.softmax(dim=1)  # S: sums to 1 over queries at every pixel
+        if self.upsampler is not None:  # the final masks at stride 2 or 1
+            fine = self.upsampler(mask_features, x)  # (B, C, H'/s, W'/s)
+            # the prior stays a stride-4 map, upsampled: a fresh upsampler then changes nothing
+            logits = self.mask_head(tgt, fine) + F.interpolate(
+                logits - self.mask_head(tgt, mask_features), size=fine.shape[-2:],
+                mode="bilinear", align_corners=False)
+        if out_size is None:
+            out.logits = resize(logits, tuple(x.shape[-2:]))[..., :h, :w]  # (B, n, H, W)
+        else:
+            out.logits = upsample_crop_resize(logits, tuple(x.shape[-2:]), (h, w), out_size)
         return out

@@ -2,6 +2,17 @@
 
     python scripts/bench_model.py                      # tiny: steps/s at 64 and 128 px, batch 8
     python scripts/bench_model.py --latency-presets tiny paper
+    python scripts/bench_model.py --compare /work/main --recipes segmenter,full --sizes 64 128
+
+--compare OLD_TREE times the shipped recipes' steps (``segmenter`` = experiment=
+default_segmenter, ``full`` = experiment=default, eq. 4.24; see scripts/profile_train.py for
+what 64 / 128 px mean) of the code in OLD_TREE (e.g. a checkout of main before the speed-ups)
+and of this tree in the same run: child processes alternate old, new, old, new ... for
+``--rounds`` rounds of ``--round-steps`` steps each (after one warm-up step per process), one
+torch thread each; the medians of the per-step wall times (batch generation included) and
+their ratio are printed, for wall time and for the training process's CPU time (steadier on a
+busy shared machine; a data worker's CPU is not in it). Interleaving keeps the machine's load
+out of the ratios as far as it can.
 
 Training: full steps of the training program (all losses on: reconstruction + LPIPS, entropy,
 compactness, reshuffle + texture + patch GAN, equivariance consistency + transformed
@@ -14,10 +25,18 @@ image (best of 3), no gradients. Baselines printed for comparison: the issue's t
 from __future__ import annotations
 
 import argparse
+import json
+import os
 import resource
+import statistics
+import subprocess
+import sys
 import time
+from pathlib import Path
 
 import torch
+
+HERE = Path(__file__).resolve().parent
 
 
 def _images(n: int, size: int) -> torch.Tensor:
@@ -82,15 +101,99 @@ def latency(preset: str, size: int) -> float:
     return best
 
 
+def recipe_step_times(root: str, recipe: str, size: int, batch: int, steps: int,
+                      extra: list[str]) -> list[float]:
+    """Wall seconds of ``steps`` training steps of a shipped recipe, built by the trainer code
+    and configs of the tree ``root`` (this process's import path), after one warm-up step."""
+    sys.path.insert(0, str(HERE))
+    from profile_train import compose, step_settings
+
+    from train.data import batches, build_dataset
+    from train.loop import _batch, train_step
+    from train.setup import build
+
+    cfg = compose(recipe, size, batch, extra, root=Path(root))
+    torch.manual_seed(0)
+    parts = build(cfg, torch.device("cpu"))
+    data = batches(build_dataset(cfg.data, 1000 * batch), batch, 0, 0, 1,
+                   cfg.data.num_workers)
+    settings = step_settings(parts, cfg)
+    times = []
+    for step in range(1, steps + 2):  # odd first step: the warm-up skips the lazy R1
+        t0, c0 = time.perf_counter(), time.process_time()
+        g = torch.Generator().manual_seed(step)
+        images, labels = _batch(next(data), cfg, parts, g)
+        train_step(parts, images, labels, settings, step, g)
+        times.append((time.perf_counter() - t0, time.process_time() - c0))
+    return times[1:]
+
+
+def compare(old: str, recipe: str, size: int, args) -> dict[str, tuple[float, float]]:
+    """{"old": ..., "new": ...}: median (wall, CPU) seconds per step of the old tree and this
+    one, child processes interleaved. CPU = the training process's own CPU time (a data
+    worker's is not in it), the steadier number on a shared machine."""
+    runs: dict[str, list] = {"old": [], "new": []}
+    for _ in range(args.rounds):
+        for name, root in (("old", old), ("new", str(HERE.parent))):
+            cmd = [sys.executable, str(HERE / "bench_model.py"), "--child", root, "--recipes",
+                   recipe, "--sizes", str(size), "--batch", str(args.batch), "--steps",
+                   str(args.round_steps), *(["--set", *args.set] if args.set else [])]
+            env = {**os.environ, "PYTHONPATH": root, "OMP_NUM_THREADS": "1",
+                   "MKL_NUM_THREADS": "1"}
+            out = subprocess.run(cmd, cwd=root, env=env, capture_output=True, text=True)
+            if out.returncode:
+                raise SystemExit(f"bench child failed ({root}):\n{out.stderr[-2000:]}")
+            line = json.loads(out.stdout.strip().splitlines()[-1])
+            if line["root"] != root:
+                raise SystemExit(f"bench child imported {line['root']}, not {root}")
+            runs[name] += line["times"]
+    return {k: (statistics.median(w for w, _ in v), statistics.median(c for _, c in v))
+            for k, v in runs.items()}
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawTextHelpFormatter)
-    ap.add_argument("--preset", default="tiny")
-    ap.add_argument("--sizes", type=int, nargs="+", default=[64, 128])
-    ap.add_argument("--batch", type=int, default=8)
-    ap.add_argument("--steps", type=int, default=5)
-    ap.add_argument("--latency-presets", nargs="*", default=["tiny"])
-    ap.add_argument("--latency-size", type=int, default=256)
+    ap.add_argument("--preset", default="tiny", help="model preset of the all-losses step")
+    ap.add_argument("--sizes", type=int, nargs="+", default=[64, 128], help="image sides")
+    ap.add_argument("--batch", type=int, default=8, help="batch size")
+    ap.add_argument("--steps", type=int, default=5, help="timed steps (per round: see "
+                    "--round-steps)")
+    ap.add_argument("--latency-presets", nargs="*", default=["tiny"],
+                    help="presets whose encode + decode latency is measured")
+    ap.add_argument("--latency-size", type=int, default=256, help="latency image side")
+    ap.add_argument("--compare", default=None, metavar="OLD_TREE",
+                    help="time the shipped recipes of OLD_TREE's code against this tree's")
+    ap.add_argument("--recipes", default="segmenter,full",
+                    help="with --compare: comma list of segmenter, full")
+    ap.add_argument("--rounds", type=int, default=3, help="with --compare: old/new rounds")
+    ap.add_argument("--round-steps", type=int, default=2, help="with --compare: steps a round")
+    ap.add_argument("--set", nargs="*", default=[],
+                    help="with --compare: extra Hydra overrides for both trees, key=value")
+    ap.add_argument("--child", default=None, help=argparse.SUPPRESS)
     args = ap.parse_args()
+    if args.compare or args.child:
+        torch.set_num_threads(1)
+    if args.child:
+        times = recipe_step_times(args.child, args.recipes, args.sizes[0], args.batch,
+                                  args.steps, args.set)
+        import train
+
+        print(json.dumps({"times": times, "root": str(Path(train.__file__).parents[1])}))
+        return
+    if args.compare:
+        print(f"torch {torch.__version__}, 1 thread per process, CPU; batch {args.batch}; "
+              f"median s/step over {args.rounds} x {args.round_steps} steps, interleaved")
+        print("| recipe | old wall s/step | new wall s/step | speed-up (wall) | old CPU s/step "
+              "| new CPU s/step | speed-up (CPU) |\n|---|---:|---:|---:|---:|---:|---:|")
+        for recipe in args.recipes.split(","):
+            for size in args.sizes:
+                r = compare(args.compare, recipe, size, args)
+                cells = []
+                for i in (0, 1):
+                    old, new = r["old"][i], r["new"][i]
+                    cells += [f"{old:.3f}", f"{new:.3f}", f"**{old / new:.2f}x**"]
+                print(f"| {recipe} {size} px | " + " | ".join(cells) + " |", flush=True)
+        return
     print(f"torch {torch.__version__}, {torch.get_num_threads()} threads, CPU")
     print(f"training steps ({args.preset}, batch {args.batch}, all losses): target >= 2 steps/s "
           "at 64 px")

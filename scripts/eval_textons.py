@@ -20,11 +20,13 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from neuraltex.baselines import METHODS, get_segmenter  # noqa: E402
+from neuraltex.baselines import METHODS, MODEL_LABELS, get_segmenter  # noqa: E402
+from neuraltex.data.families import FAMILY_NAMES  # noqa: E402
 from neuraltex.data.splits import benchmark_split, validation_split  # noqa: E402
 from neuraltex.errors import InputError, cli_entry  # noqa: E402
 from neuraltex.evaluation import family_table, score, summary_table, tune  # noqa: E402
 from neuraltex.fileio import write_text_atomic  # noqa: E402
+from neuraltex.limits import MAX_TEXTONS  # noqa: E402
 
 LEGEND = """\
 Metrics (neuraltex/metrics.py): **miou** = Hungarian-matched mean IoU over ground-truth
@@ -43,6 +45,14 @@ def build_parser() -> argparse.ArgumentParser:
                    help="main parameter value (only with a single baseline method)")
     p.add_argument("--checkpoint", default=None,
                    help="model for --method model (default: the shipped model)")
+    p.add_argument("--model-labels", choices=MODEL_LABELS, default="masks",
+                   help="--method model: pixel labels from the E_s masks (stride 4), the splats, "
+                        "or the masks refined to image edges by SLIC majority vote")
+    p.add_argument("--num-queries", type=int, default=None,
+                   help="--method model: resample E_s's query grid to this many queries "
+                        "(no training; for dense textures, e.g. 196)")
+    p.add_argument("--families", default=None,
+                   help="comma list of families to score (default: all), e.g. discs,dots")
     p.add_argument("--tune", action="store_true",
                    help="tune each baseline's main parameter on the validation split first")
     p.add_argument("--split", choices=("benchmark", "validation"), default="benchmark")
@@ -68,10 +78,19 @@ def main(argv: list[str] | None = None) -> int:
     names = _methods(args.method)
     if args.param is not None and (len(names) != 1 or names[0] == "model"):
         raise InputError("--param needs exactly one baseline --method")
+    if args.num_queries is not None and not 1 <= args.num_queries <= MAX_TEXTONS:
+        raise InputError(f"--num-queries must be in [1, {MAX_TEXTONS}]")
     if args.limit is not None and args.limit < 1:
         raise InputError("--limit must be >= 1")
     progress = not args.quiet
     items = benchmark_split() if args.split == "benchmark" else validation_split()
+    if args.families:
+        wanted = [f.strip() for f in args.families.split(",") if f.strip()]
+        unknown = sorted(set(wanted) - set(FAMILY_NAMES))
+        if unknown:
+            raise InputError(f"unknown families {', '.join(unknown)}; choose from "
+                             f"{', '.join(FAMILY_NAMES)}")
+        items = [it for it in items if it.family in wanted]
     items = items[: args.limit] if args.limit else items
     samples = [it.load() for it in items]
     validation = [it.load() for it in validation_split()] if args.tune else None
@@ -80,7 +99,11 @@ def main(argv: list[str] | None = None) -> int:
     for name in names:
         t0 = time.perf_counter()
         if name == "model":
-            segment, params[name] = get_segmenter("model", checkpoint=args.checkpoint), ""
+            segment = get_segmenter("model", checkpoint=args.checkpoint,
+                                    model_labels=args.model_labels,
+                                    num_queries=args.num_queries)
+            params[name] = f"labels={args.model_labels}" + (
+                f" queries={args.num_queries}" if args.num_queries else "")
         else:
             m = METHODS[name]
             value = m.default if args.param is None else args.param

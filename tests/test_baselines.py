@@ -76,3 +76,21 @@ def test_eval_script_end_to_end(tmp_path, capsys):
     assert eval_textons.main(["--method", "model", "--limit", "1", "--checkpoint",
                               str(tmp_path / "none.safetensors")]) == 2
     assert "error" in capsys.readouterr().err
+
+
+def test_eval_script_model_options(tmp_path, capsys):
+    """--families, --model-labels refined and --num-queries (issue 16), one image."""
+    sys.path.insert(0, str(ROOT / "scripts"))
+    try:
+        import eval_textons
+    finally:
+        sys.path.pop(0)
+    md = tmp_path / "t.md"
+    assert eval_textons.main(["--method", "model", "--model-labels", "refined", "--num-queries",
+                              "144", "--families", "dots", "--limit", "1", "--quiet",
+                              "--markdown", str(md)]) == 0
+    text = md.read_text()
+    assert "labels=refined queries=144" in text and "dots (easy)" in text
+    assert eval_textons.main(["--families", "nope"]) == 2
+    assert eval_textons.main(["--method", "model", "--num-queries", "0"]) == 2
+    assert "error" in capsys.readouterr().err

@@ -1,6 +1,6 @@
 import torch
 
-from train.mask_supervision import mask_supervision_loss, pairwise_dice_bce
+from train.mask_supervision import instance_targets, mask_supervision_loss, pairwise_dice_bce
 
 
 def _labels():
@@ -30,6 +30,51 @@ def test_gradient_pulls_matched_query_towards_its_segment():
 
 
 def test_pairwise_cost_minimal_on_identity():
-    T = (torch.rand(4, 50) > 0.5).float()
-    c = pairwise_dice_bce(T.clamp(1e-4, 1 - 1e-4), T)
+    index = torch.randint(0, 4, (1, 60))
+    T = torch.nn.functional.one_hot(index[0], 4).T.float()  # (4, 60) one segment per pixel
+    c = pairwise_dice_bce(T.clamp(1e-4, 1 - 1e-4)[None], index, 4)[0]
     assert torch.equal(c.argmin(dim=1), torch.arange(4))
+
+
+def test_instance_targets_keep_the_largest_segments():
+    lab = torch.tensor([[[0, 0, 0, 1], [2, 2, 3, 3]], [[5, 5, 5, 5], [5, 5, 5, 5]]])
+    index, valid = instance_targets(lab, 2)  # image 0: 0 (3 px), then 2 or 3 (2 px), 1 dropped
+    assert valid.tolist() == [[True, True], [True, False]]
+    assert index[0, :3].tolist() == [0, 0, 0] and index[0, 3] == 2  # 1 -> "no segment"
+    assert (index[1] == 0).all()
+
+
+def _reference_loss(masks, labels):
+    """The plain per-image loop (one cost matrix and one assignment per image)."""
+    from scipy.optimize import linear_sum_assignment
+
+    B, n, H, W = masks.shape
+    total = masks.new_zeros(())
+    for b in range(B):
+        S = masks[b].reshape(n, H * W)
+        ids = torch.unique(labels[b])
+        T = (labels[b].flatten()[None] == ids[:, None]).float()
+        cost = torch.stack([torch.stack([
+            1 - (2 * (s * t).sum() + 1) / (s.sum() + t.sum() + 1)
+            - (t * s.clamp_min(1e-6).log() + (1 - t) * (1 - s).clamp_min(1e-6).log()).mean()
+            for t in T]) for s in S])
+        rows, cols = linear_sum_assignment(cost.detach().numpy())
+        unmatched = torch.ones(n, dtype=torch.bool)
+        unmatched[rows] = False
+        empty = S[unmatched].mean() if unmatched.any() else S.new_zeros(())
+        total = total + cost[rows, cols].mean() + empty
+    return total / B
+
+
+def test_batched_loss_equals_the_per_image_reference_with_gradients():
+    torch.manual_seed(0)
+    labels = torch.randint(0, 5, (3, 10, 10))
+    labels[1][labels[1] > 2] = 0  # images with different numbers of segments
+    labels[2] = 1
+    logits = torch.randn(3, 6, 10, 10, dtype=torch.float64, requires_grad=True)
+    fast = mask_supervision_loss(logits.softmax(1), labels)
+    (g_fast,) = torch.autograd.grad(fast, logits)
+    ref = _reference_loss(logits.softmax(1), labels)
+    (g_ref,) = torch.autograd.grad(ref, logits)
+    assert torch.allclose(fast, ref, atol=1e-10)
+    assert torch.allclose(g_fast, g_ref, atol=1e-10)

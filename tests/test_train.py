@@ -209,3 +209,26 @@ def test_batchnorm_recalibration_changes_only_the_export(tmp_path):
     others = [k for k in trained if "running_" not in k and "num_batches" not in k]
     assert all(torch.equal(trained[k], exported[k]) for k in others)
     assert load_model(tmp_path / "model.safetensors").info["bn_recalibration"] == 8
+
+
+def test_long_segmenter_preset_runs_and_resumes(tmp_path):
+    """The long-run preset (MODEL.md, issue 16 item 5) at 2 steps: point-sampled mask loss,
+    data worker, stop and resume from run_dir/last.pt."""
+    over = ["experiment=long_segmenter", "model.image_size=64", "model.estimation_size=32",
+            "trainer.batch_size=2", "trainer.export=null", "loss.mask_points=256"]
+    run(_cfg(tmp_path, *over, "trainer.max_steps=1"))
+    logs = run(_cfg(tmp_path, *over, "trainer.max_steps=2"))
+    assert load_training_checkpoint(tmp_path / "last.pt")["step"] == 2 and logs["mask"] > 0
+
+
+def test_fine_mask_stride_trains_and_exports(tmp_path):
+    run(_cfg(tmp_path, "trainer.max_steps=1", "model.mask_stride=2",
+             "loss.mask_supervision=gt"))
+    model = load_model(tmp_path / "model.safetensors")
+    assert model.config.mask_stride == 2 and model.segmenter.upsampler is not None
+
+
+def test_bfloat16_autocast_on_cpu(tmp_path):
+    """trainer.amp on CPU: the estimation runs in float32 (no bfloat16 LU), the step is finite."""
+    logs = run(_cfg(tmp_path, "trainer.max_steps=1", "trainer.amp=true", "trainer.export=null"))
+    assert all(torch.isfinite(torch.tensor(v)) for v in logs.values())

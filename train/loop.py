@@ -12,6 +12,7 @@ import os
 import signal
 import threading
 import time
+from dataclasses import replace
 from pathlib import Path
 
 import torch
@@ -85,7 +86,9 @@ def _steps(cfg: DictConfig, parts: Parts, progress: Progress, data, logger: Logg
     for step in bar:
         g = torch.Generator().manual_seed(int(cfg.seed) * 1_000_003 + rank * 7919 + step)
         images, labels = _batch(next(data), cfg, parts, g)
-        settings = parts.loss.at(step, T.schedule_scale)
+        shown = step + 1 == T.max_steps or any((step + 1) % k == 0
+                                                for k in (T.log_every, T.image_every))
+        settings = replace(parts.loss.at(step, T.schedule_scale), diagnostics=shown)
         _set_lr(parts, T, step)
         out, logs = train_step(parts, images, labels, settings, step, g)
         done = step + 1
@@ -192,9 +195,11 @@ def _device(cfg: DictConfig, rank: int) -> torch.device:
 
 def _progress(logs: dict[str, float]) -> dict[str, str]:
     out = {k: f"{logs[k]:.3f}" for k in ("recon", "mask") if k in logs}
-    out["eff"] = f"{logs['diag/effective']:.1f}"
+    if "diag/effective" in logs:
+        out["eff"] = f"{logs['diag/effective']:.1f}"
     if "diag/l1" in logs:
-        out["l1"] = f"{logs['diag/l1']:.3f}/{logs['diag/l1_constant']:.3f}"
+        const = logs.get("diag/l1_constant")  # only on logged steps
+        out["l1"] = f"{logs['diag/l1']:.3f}" + (f"/{const:.3f}" if const is not None else "")
     return out
 
 

@@ -31,6 +31,7 @@ class StepSettings:
     patch_size: int  # patch side of the texture loss
     existence: str = "sample"  # "all" during loss.existence_warmup (every delta = 1)
     segmenter_only: bool = False  # loss.segmenter_warmup: only E_s learns the given masks
+    diagnostics: bool = True  # all diag/* numbers (the trainer: only on steps it logs)
 
     def scalars(self) -> dict[str, float]:
         """The weights and the patch size, for the log (``w/<name>``)."""
@@ -57,6 +58,7 @@ class LossConfig:
     existence_warmup: int = 0  # paper steps (x schedule scale) with delta = 1 for all textons
     segmenter_warmup: int = 0  # paper steps (x schedule scale) training only E_s
     mask_supervision: str = "none"  # none | gt | pseudo
+    mask_points: int | None = None  # pixels per image the mask loss samples; None: all
     equivariance: bool = True
     reshuffle: bool = True
     gan: bool = True

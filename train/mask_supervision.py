@@ -5,6 +5,10 @@ instances, or Felzenszwalb segments for ``pseudo``; the background counts as one
 matched to one query by the Hungarian algorithm on a dice + BCE cost, then the matched pairs
 are pulled together with the same dice + BCE, and unmatched queries are pushed towards empty
 masks. Masks are the softmax-normalized S of the segmentation head.
+
+With ``points`` the costs and the loss are computed on that many uniformly sampled pixels per
+image instead of all of them (Mask2Former's point-sampled loss, Cheng et al. 2022, 3.3: it
+trains on 112 x 112 sampled points), the same pixels for every query of an image.
 """
 
 from __future__ import annotations
@@ -17,43 +21,72 @@ from torch import Tensor
 _EPS = 1e-6
 
 
-def instance_targets(labels: Tensor, max_segments: int) -> list[Tensor]:
-    """Label maps (B, H, W) int (0 = background, k = segment k) -> per image (m, H*W) binary
-    masks of the present labels, the largest ``max_segments`` kept."""
-    out = []
-    for lab in labels.flatten(1):
-        ids, counts = torch.unique(lab, return_counts=True)
-        ids = ids[torch.argsort(counts, descending=True)[:max_segments]]
-        out.append((lab.unsqueeze(0) == ids.unsqueeze(1)).to(torch.float32))
-    return out
+def instance_targets(labels: Tensor, max_segments: int) -> tuple[Tensor, Tensor]:
+    """Label maps (B, H, W) int (0 = background, k = segment k) -> the segment index of every
+    pixel among its image's largest ``max_segments`` labels (largest first; ``m`` = the most
+    any image has, marks pixels of dropped labels), index (B, H*W) long in [0, m], and which
+    of the m segments exist, valid (B, m) bool."""
+    flat = labels.flatten(1)  # (B, P)
+    order = []
+    for lab in flat:
+        ids, inverse, counts = torch.unique(lab, return_inverse=True, return_counts=True)
+        rank = torch.empty_like(counts)
+        rank[torch.argsort(counts, descending=True)] = torch.arange(len(counts))
+        order.append((rank[inverse], min(len(ids), max_segments)))  # (P,) rank per pixel
+    m = max(k for _, k in order)
+    index = torch.stack([r.clamp_max(m) for r, _ in order])  # (B, P); >= k: dropped
+    valid = torch.arange(m) < torch.tensor([k for _, k in order])[:, None]  # (B, m)
+    index = torch.where(index < valid.sum(1, keepdim=True), index, m)
+    return index, valid.to(labels.device)
 
 
-def pairwise_dice_bce(S: Tensor, T: Tensor) -> Tensor:
-    """Cost between every query mask and target mask. S (n, P) probs, T (m, P) binary -> (n, m)."""
-    T = T.to(S.dtype)
-    inter = S @ T.T
-    dice = 1 - (2 * inter + 1) / (S.sum(-1, keepdim=True) + T.sum(-1).unsqueeze(0) + 1)
+def segment_sums(x: Tensor, index: Tensor, m: int) -> Tensor:
+    """x (B, n, P) summed over the pixels of each segment: (B, n, m); index (B, P) in [0, m]
+    (m: no segment). Equals x @ T^T for the binary target masks T (B, m, P) at O(n P) cost."""
+    B, n, P = x.shape
+    out = x.new_zeros(B, n, m + 1)
+    return out.scatter_add(2, index[:, None].expand(B, n, P), x)[..., :m]
+
+
+def pairwise_dice_bce(S: Tensor, index: Tensor, m: int) -> Tensor:
+    """Dice + BCE cost between every query mask and target segment. S (B, n, P) probs, index
+    (B, P) segment of each pixel in [0, m] (:func:`instance_targets`) -> (B, n, m)."""
+    inter = segment_sums(S, index, m)  # (B, n, m) = S @ T^T
+    area = torch.zeros(index.shape[0], m + 1, dtype=S.dtype, device=S.device)
+    area = area.scatter_add(1, index, torch.ones_like(index, dtype=S.dtype))[:, None, :m]
+    dice = 1 - (2 * inter + 1) / (S.sum(-1, keepdim=True) + area + 1)
     logs, log1ms = torch.log(S.clamp_min(_EPS)), torch.log((1 - S).clamp_min(_EPS))
-    bce = -(logs @ T.T + log1ms @ (1 - T).T) / S.shape[-1]
+    # sum_p [t log s + (1 - t) log(1 - s)] = sum_{p in T} (log s - log(1 - s)) + sum_p log(1 - s)
+    bce = -(segment_sums(logs - log1ms, index, m) + log1ms.sum(-1, keepdim=True)) / S.shape[-1]
     return dice + bce
 
 
-def mask_supervision_loss(masks: Tensor, labels: Tensor) -> Tensor:
+def mask_supervision_loss(masks: Tensor, labels: Tensor, points: int | None = None,
+                          generator: torch.Generator | None = None) -> Tensor:
     """Hungarian-matched dice + BCE. masks (B, n, H, W) softmax over n; labels (B, H', W')
-    integer segment maps (resized to H x W with nearest neighbour) -> scalar."""
+    integer segment maps (resized to H x W with nearest neighbour) -> scalar. ``points``:
+    sample that many pixels per image (None or >= H*W: every pixel).
+
+    The costs of all images come from one batched product; only the assignment runs per
+    image (scipy)."""
     B, n, H, W = masks.shape
     if labels.shape[-2:] != (H, W):
         labels = F.interpolate(labels[:, None].float(), size=(H, W), mode="nearest")[:, 0]
-    targets = instance_targets(labels.long(), n)
-    total = masks.new_zeros(())
-    for b in range(B):
-        S = masks[b].reshape(n, H * W)
-        T = targets[b].to(S.device)
-        cost = pairwise_dice_bce(S, T)
-        rows, cols = linear_sum_assignment(cost.detach().cpu().numpy())
-        matched = cost[torch.as_tensor(rows), torch.as_tensor(cols)].mean()
-        unmatched = torch.ones(n, dtype=torch.bool, device=S.device)
-        unmatched[torch.as_tensor(rows, device=S.device)] = False
-        empty = S[unmatched].mean() if unmatched.any() else S.new_zeros(())
-        total = total + matched + empty
-    return total / B
+    index, valid = instance_targets(labels.long().to(masks.device), n)  # (B, P), (B, m)
+    S = masks.reshape(B, n, H * W)
+    if points and points < H * W:
+        pick = torch.rand(B, H * W, generator=generator).argsort(-1)[:, :points]  # (B, k)
+        pick = pick.to(masks.device)
+        S, index = S.gather(-1, pick[:, None].expand(B, n, points)), index.gather(-1, pick)
+    cost = pairwise_dice_bce(S, index, valid.shape[1])  # (B, n, m)
+    costs = cost.detach().cpu().numpy()
+    matched = torch.zeros(B, n, cost.shape[-1], dtype=torch.bool)
+    for b, m in enumerate(valid.sum(1).tolist()):
+        rows, cols = linear_sum_assignment(costs[b, :, :m])
+        matched[b, rows, cols] = True
+    matched = matched.to(masks.device)
+    pairs = matched.sum((1, 2))  # (B,)
+    matched_cost = (cost * matched).sum((1, 2)) / pairs  # mean over each image's pairs
+    unmatched = (~matched.any(-1)).to(S.dtype)  # (B, n) queries with no segment
+    empty = (S.mean(-1) * unmatched).sum(-1) / unmatched.sum(-1).clamp_min(1)  # (B,)
+    return (matched_cost + empty).mean()

@@ -40,7 +40,7 @@ class Outputs(NamedTuple):
     logs: dict[str, float]
     recon: Tensor            # (B, 3, H, W) in [0, 1]
     reshuffled: Tensor | None
-    encoded: object          # neuraltex.model.Encoded
+    encoded: object          # neuraltex.model.Encoded (None: a warm-up step without diagnostics)
 
 
 class GeneratorObjective(nn.Module):
@@ -61,7 +61,7 @@ class GeneratorObjective(nn.Module):
         given segments (mask supervision gt or pseudo) and nothing is decoded."""
         opt, model = self.loss, self.model
         if w.segmenter_only:
-            return self._segmenter_warmup(images, labels, w)
+            return self._segmenter_warmup(images, labels, w, g)
         size = tuple(images.shape[-2:])
         enc = model.encode(images, existence=w.existence, generator=g, native=False)
         z = enc.textons
@@ -93,27 +93,29 @@ class GeneratorObjective(nn.Module):
             logs["csis"], logs["recon_t"] = csis, recon_t
             total = total + w.csis * csis + recon_t
         if opt.mask_supervision != "none" and labels is not None:
-            logs["mask"] = mask_supervision_loss(enc.masks, labels)
+            logs["mask"] = mask_supervision_loss(enc.masks, labels, opt.mask_points, g)
             total = total + w.mask * logs["mask"]
         logs["total"] = total
         out = {k: float(v.detach()) for k, v in logs.items()}
-        out.update(_diagnostics(images, recon.detach(), enc))
+        out.update(_diagnostics(images, recon.detach(), enc, w.diagnostics))
         return Outputs(total, out, recon, reshuffled, enc)
 
-    def _segmenter_warmup(self, images: Tensor, labels: Tensor | None,
-                          w: StepSettings) -> Outputs:
+    def _segmenter_warmup(self, images: Tensor, labels: Tensor | None, w: StepSettings,
+                          g: torch.Generator) -> Outputs:
         """Warm-up: E_s learns the given segments; nothing is decoded (recon is blank)."""
         if labels is None:
             raise ValueError("a segmenter warm-up needs loss.mask_supervision=gt or pseudo")
         masks = self.model.segment(images)  # (B, n, h, w)
-        mask = mask_supervision_loss(masks, labels)
+        mask = mask_supervision_loss(masks, labels, self.loss.mask_points, g)
         total = w.mask * mask
+        logs = {"mask": float(mask.detach()), "total": float(total.detach())}
+        if not w.diagnostics:  # a step nobody looks at: no geometry
+            return Outputs(total, logs, torch.zeros_like(images), None, None)
         with torch.no_grad():  # geometry only, for the diagnostics and the overlay pictures
             B, _, h, wd = masks.shape
             blank = masks.new_zeros(B, 1, h, wd)
             z = estimate_textons(masks, blank, blank.expand(B, 2, h, wd), existence="round")
         enc = Encoded(z, masks.detach(), blank, blank)
-        logs = {"mask": float(mask.detach()), "total": float(total.detach())}
         logs.update(_diagnostics(images, None, enc))
         return Outputs(total, logs, torch.zeros_like(images), None, enc)
 
@@ -178,10 +180,17 @@ class CriticObjective(nn.Module):
 
 
 @torch.no_grad()
-def _diagnostics(images: Tensor, recon: Tensor | None, enc) -> dict[str, float]:
+def _diagnostics(images: Tensor, recon: Tensor | None, enc, full: bool = True
+                 ) -> dict[str, float]:
     """Numbers that expose the three degenerate phases of CPU training: a fixed
     partition (masks identical across images), collapse (1-2 queries take all pixels), a dead
-    start (no effective textons), and whether the decoder beats a constant image."""
+    start (no effective textons), and whether the decoder beats a constant image. Without
+    ``full`` only the cheap ones (the per-pixel argmax costs ~3 % of a segmenter step)."""
+    out = {"diag/effective": float((enc.textons.p > 0.5).sum(-1).float().mean())}  # as inference
+    if recon is not None:
+        out["diag/l1"] = float((recon - images).abs().mean())
+    if not full:
+        return out
     labels = enc.masks.argmax(1).flatten(1)  # (B, P)
     B = labels.shape[0]
     if B > 1:
@@ -191,12 +200,5 @@ def _diagnostics(images: Tensor, recon: Tensor | None, enc) -> dict[str, float]:
         diversity = 0.0
     used = [int(torch.unique(lab).numel()) for lab in labels]
     const = (images - images.mean(dim=(0, 2, 3), keepdim=True)).abs().mean()
-    out = {
-        "diag/mask_diversity": diversity,
-        "diag/queries_used": sum(used) / B,
-        "diag/effective": float((enc.textons.p > 0.5).sum(-1).float().mean()),  # as inference
-        "diag/l1_constant": float(const),
-    }
-    if recon is not None:
-        out["diag/l1"] = float((recon - images).abs().mean())
-    return out
+    return out | {"diag/mask_diversity": diversity, "diag/queries_used": sum(used) / B,
+                  "diag/l1_constant": float(const)}

@@ -31,7 +31,7 @@ class Parts:
     opt_d: torch.optim.Optimizer
     loss: LossConfig
     device: torch.device
-    amp: bool = False  # bfloat16 autocast (CUDA only)
+    amp: bool = False  # bfloat16 autocast (CUDA, or a CPU with bf16 instructions)
 
 
 @dataclass
@@ -58,6 +58,9 @@ def build(cfg: DictConfig, device: torch.device, world: int = 1) -> Parts:
     model, image_critic, patch_critic = build_model(mcfg, with_critics=True)
     critics = CriticObjective(image_critic, patch_critic, loss, mcfg.image_size).to(device)
     gen = GeneratorObjective(model, critics, loss).to(device)
+    if T.get("channels_last"):  # NHWC convolutions: SPADE G ~1.26x less CPU (oneDNN)
+        gen.to(memory_format=torch.channels_last)  # the model and LPIPS
+        critics.to(memory_format=torch.channels_last)
     for name in T.freeze or ():  # e.g. [segmenter]: fine-tune the rest around a fixed E_s
         getattr(model, name).requires_grad_(False)
     trainable = [p for p in model.parameters() if p.requires_grad]
@@ -65,7 +68,7 @@ def build(cfg: DictConfig, device: torch.device, world: int = 1) -> Parts:
     opt_d = torch.optim.Adam(critics.parameters(), lr=T.d_lr, betas=tuple(T.betas))
     wrap = _ddp if world > 1 else (lambda m: m)
     return Parts(model, critics, gen, wrap(gen), wrap(critics), opt_g, opt_d, loss, device,
-                 amp=bool(T.amp) and device.type == "cuda")
+                 amp=bool(T.amp))
 
 
 def _ddp(module: torch.nn.Module) -> DDP:
@@ -127,13 +130,27 @@ def init_from(model: TextonAutoencoder, path, parts) -> dict:
     record: dict = {}
     if path:
         weights, record["init_from"] = load(path)
-        model.load_state_dict(weights)
+        model.load_state_dict(_fit_queries(weights, model))
     for part, p in (parts or {}).items():
         weights, source = load(p)
         prefix = f"{part}."
-        weights = {k[len(prefix):]: v for k, v in weights.items() if k.startswith(prefix)}
+        weights = {k[len(prefix):]: v for k, v in _fit_queries(weights, model).items()
+                   if k.startswith(prefix)}
         if not weights or not hasattr(model, part):
             raise ValueError(f"trainer.init_parts: {p} has no model part {part!r}")
         getattr(model, part).load_state_dict(weights)
         record.setdefault("init_parts", {})[part] = source
     return record
+
+
+def _fit_queries(weights: dict, model: TextonAutoencoder) -> dict:
+    """Weights whose E_s has another number of queries than ``model`` (e.g. the shipped 100
+    for a dense-texture run with ``model.num_queries=196``): queries resampled to the model's
+    anchor grid (:mod:`neuraltex.query_grid`); other weights as they are."""
+    from neuraltex.query_grid import adapt_queries
+
+    n = getattr(model.segmenter, "num_queries", None)
+    theirs = weights.get("segmenter.query_feat")
+    if n is None or theirs is None or theirs.shape[0] == n:
+        return weights
+    return adapt_queries(weights, n)

@@ -1,0 +1,180 @@
+"""The fast paths of the training step against plain references: E_s logits resampled from
+stride 4, point-sampled mask loss, query-grid resampling for more queries."""
+
+from __future__ import annotations
+
+import pytest
+import torch
+import torch.nn.functional as F
+
+from neuraltex.model import build_model, load_model
+from neuraltex.model_config import ModelConfig
+from neuraltex.nn_utils import resize, upsample_crop_resize
+from neuraltex.query_grid import adapt_queries, grid_shape, resample_queries
+from neuraltex.segmentation import SegmentationNet
+from train.mask_supervision import mask_supervision_loss
+
+pytestmark = pytest.mark.usefixtures("one_thread", "seeded")
+
+
+def _reference(x, up, crop, out):
+    y = resize(x, up)[..., : crop[0], : crop[1]]
+    return F.interpolate(y, size=out, mode="bilinear", align_corners=False)
+
+
+@pytest.mark.parametrize("shapes", [((8, 8), (32, 32), (32, 32), (16, 16)),
+                                    ((7, 5), (28, 20), (25, 19), (13, 10)),
+                                    ((4, 4), (16, 16), (16, 16), (16, 16))])
+def test_upsample_crop_resize_equals_the_chain_forward_and_backward(shapes):
+    hw, up, crop, out = shapes
+    x = torch.randn(2, 3, *hw, dtype=torch.float64, requires_grad=True)
+    fast, ref = upsample_crop_resize(x, up, crop, out), _reference(x, up, crop, out)
+    assert fast.shape == (2, 3, *out) and torch.allclose(fast, ref, atol=1e-12)
+    g = torch.randn_like(ref)
+    (gf,), (gr,) = torch.autograd.grad(fast, x, g), torch.autograd.grad(ref, x, g)
+    assert torch.allclose(gf, gr, atol=1e-12)
+    with pytest.raises(ValueError):
+        upsample_crop_resize(x, (2, 2), (2, 2), (2, 2))
+
+
+def test_segmenter_out_size_equals_resizing_its_full_size_logits(tiny):
+    seg = SegmentationNet.from_config(tiny.segmentation).eval()
+    x = torch.rand(2, 3, 40, 52)
+    with torch.no_grad():
+        full = seg(x).logits  # (B, n, 40, 52)
+        small = seg(x, out_size=(20, 26)).logits
+    ref = F.interpolate(full, size=(20, 26), mode="bilinear", align_corners=False)
+    assert torch.allclose(small, ref, atol=1e-5)
+
+
+def _labels_and_masks(B=2, n=6, hw=12):
+    labels = torch.randint(0, 4, (B, hw, hw))
+    logits = torch.randn(B, n, hw, hw, requires_grad=True)
+    return labels, logits
+
+
+def test_point_sampled_mask_loss():
+    labels, logits = _labels_and_masks()
+    full = mask_supervision_loss(logits.softmax(1), labels)
+    assert torch.equal(full, mask_supervision_loss(logits.softmax(1), labels, points=144))
+    g = torch.Generator().manual_seed(3)
+    a = mask_supervision_loss(logits.softmax(1), labels, 40, g)
+    b = mask_supervision_loss(logits.softmax(1), labels, 40, torch.Generator().manual_seed(3))
+    assert torch.equal(a, b) and not torch.equal(a, full)
+    with torch.no_grad():  # the sampled loss estimates the full one
+        samples = torch.stack([mask_supervision_loss(logits.softmax(1), labels, 72, g)
+                               for _ in range(40)])
+    assert abs(float(samples.mean()) - float(full.detach())) < 0.1 * float(full.detach())
+    a.backward()
+    assert torch.isfinite(logits.grad).all() and logits.grad.abs().sum() > 0
+
+
+def test_resample_queries_keeps_constant_and_row_major_layout():
+    assert grid_shape(100) == (10, 10) and grid_shape(196) == (14, 14)
+    assert grid_shape(16) == (4, 4) and grid_shape(20) == (4, 5)
+    q = torch.full((100, 8), 0.3)
+    assert torch.allclose(resample_queries(q, 196), torch.full((196, 8), 0.3))
+    ramp = torch.arange(10.0).repeat(10)[:, None]  # x position of each anchor, row-major
+    new = resample_queries(ramp, 196).reshape(14, 14)
+    assert (new[:, 1:] >= new[:, :-1]).all() and torch.allclose(new[1:], new[:-1])
+    assert torch.equal(resample_queries(q, 100), q)
+
+
+def test_load_model_with_more_queries(tmp_path):
+    from neuraltex.checkpoint import export_model
+
+    cfg = ModelConfig(num_queries=16)
+    model = build_model(cfg)
+    export_model(tmp_path / "m.safetensors", model.state_dict(), cfg)
+    more = load_model(tmp_path / "m.safetensors", num_queries=25)
+    assert more.segmenter.num_queries == 25 and more.config.num_queries == 25
+    assert more.segment(torch.rand(1, 3, 32, 32)).shape[1] == 25
+    same = dict(more.named_parameters())
+    for name, p in model.named_parameters():  # every weight but the queries is shared
+        if "query_" not in name:
+            assert torch.equal(p, same[name]), name
+    with pytest.raises(KeyError):
+        adapt_queries({"encoder.x": torch.zeros(1)}, 4)
+
+
+def test_init_from_resamples_queries(tmp_path):
+    from omegaconf import OmegaConf
+
+    from neuraltex.checkpoint import export_model
+    from train.setup import init_from
+
+    src = build_model(ModelConfig(num_queries=16))
+    export_model(tmp_path / "m.safetensors", src.state_dict(), ModelConfig(num_queries=16))
+    dst = build_model(ModelConfig(num_queries=36))
+    init_from(dst, tmp_path / "m.safetensors", OmegaConf.create({}))
+    assert dst.segmenter.query_feat.shape[0] == 36
+    theirs = src.state_dict()
+    for name, p in dst.state_dict().items():
+        if "query_" not in name:
+            assert torch.equal(p, theirs[name]), name
+
+
+def test_mask_upsampler_starts_as_bilinear_and_learns():
+    from neuraltex.mask_upsampler import MaskUpsampler
+
+    up = MaskUpsampler(3, 8, 2)
+    feats, image = torch.randn(2, 8, 6, 5), torch.rand(2, 3, 24, 20)
+    ref = F.interpolate(feats, size=(12, 10), mode="bilinear", align_corners=False)
+    assert torch.equal(up(feats, image), ref)
+    up(feats, image).square().sum().backward()
+    assert up.fuse.weight.grad.abs().sum() > 0  # the zero-initialized correction learns
+    with pytest.raises(ValueError):
+        MaskUpsampler(3, 8, 3)
+
+
+@pytest.mark.parametrize("stride", [1, 2])
+def test_fine_mask_stride_segmenter(tiny, stride):
+    from dataclasses import replace
+
+    seg = SegmentationNet.from_config(replace(tiny.segmentation, mask_stride=stride))
+    out = seg(torch.rand(2, 3, 40, 36))
+    assert out.logits.shape == (2, tiny.segmentation.num_queries, 40, 36)
+    assert out.aux_logits[-1].shape[-2:] == (16, 16)  # deep supervision stays at stride 4
+    out.logits.logsumexp(1).mean().backward()
+    assert seg.upsampler.fuse.weight.grad.abs().sum() > 0
+
+
+def test_mask_stride_is_a_model_setting_old_exports_default_to_4(tmp_path):
+    from neuraltex.checkpoint import export_model
+    from neuraltex.model import DEFAULT_MODEL
+
+    assert load_model(DEFAULT_MODEL).segmenter.upsampler is None  # the shipped weights
+    cfg = ModelConfig(mask_stride=2)
+    model = build_model(cfg)
+    export_model(tmp_path / "m.safetensors", model.state_dict(), cfg)
+    back = load_model(tmp_path / "m.safetensors")
+    assert back.segmenter.upsampler is not None and back.config.mask_stride == 2
+    with pytest.raises(ValueError):
+        ModelConfig.from_dict({"mask_stride": 3})
+
+
+def test_profile_script_table_and_restores_what_it_labels(tmp_path):
+    import sys
+    from pathlib import Path
+
+    import train.objective
+
+    scripts = Path(__file__).resolve().parents[1] / "scripts"
+    sys.path.insert(0, str(scripts))
+    try:
+        import profile_train
+    finally:
+        sys.path.pop(0)
+    backward, loss = torch.Tensor.backward, train.objective.mask_supervision_loss
+    md = tmp_path / "p.md"
+    assert profile_train.main(["--recipes", "segmenter", "--sizes", "64", "--batch", "2",
+                               "--steps", "1", "--set", "data.num_workers=0",
+                               "--markdown", str(md)]) == 0
+    text = md.read_text()
+    for row in ("| backward |", "| E_s transformer layers |", "| loss mask: pairwise cost |",
+                "| optimizer |", "**other**"):
+        assert row in text, row
+    shares = [float(c.strip(" %")) for line in text.splitlines() if line.startswith("| ")
+              and "%" in line for c in line.split("|")[2:-1] if c.strip()]
+    assert abs(sum(shares) - 100) < 1.0  # exclusive shares add up
+    assert torch.Tensor.backward is backward and train.objective.mask_supervision_loss is loss
