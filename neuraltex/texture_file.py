@@ -5,7 +5,8 @@ The file is safetensors (read without unpickling anything) with a JSON header:
 
     format "neuraltex.texture", version 2 (1 still read), base_model (id of the base weights),
     source {file, width, height, sha256 of the file's bytes}, size [H, W] it was fitted at,
-    segmenter, fit {steps, seconds, psnr, base_psnr}, canvas [w, h], sha256 (of all of it)
+    segmenter, fit {steps, seconds, psnr, base_psnr, plain_psnr, detail}, canvas [w, h],
+    sha256 (of all of it)
 
 and tensors ``textons.{mu, cov, v, f, order}`` (1, K, ...), ``labels`` (H, W) int32 and
 ``generator.<name>``: tuned minus base parameters of G in float16 (a few hundred KB for the
