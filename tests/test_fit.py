@@ -227,6 +227,19 @@ def test_tampered_or_foreign_texture_files_are_refused(tmp_path, model, fitted):
         load_texture(tmp_path / "junk.ntex", model)
 
 
+def test_texture_files_with_wild_sprites_are_refused(tmp_path, model, fitted):
+    from dataclasses import replace
+
+    path = tmp_path / "wild.ntex"
+    plain = model.generator.feature_channels + 1
+    f = fitted.textons.f.clone()
+    f[0, 0, plain] = 50.0  # a sprite texel no fit writes (they lie in [-1, 1])
+    save_texture(path, model, replace(fitted.textons, f=f), fitted.labels, fitted.generator,
+                 {"size": [32, 32], "source": {}, "segmenter": "x", "fit": {}})
+    with pytest.raises(TextureFileError, match="sprites"):
+        load_texture(path, model)
+
+
 def test_plain_textons_get_zero_offsets_in_the_tuned_layout(model, fitted):
     tuned = tuned_model(model, fitted.generator)
     with torch.no_grad():
