@@ -28,6 +28,7 @@ from torch import Tensor
 from neuraltex.textons import Textons
 
 WRAP_MARGIN_PX = 32  # padding of the wrap-around decode, pixels (G's reach, 8-aligned)
+TAIL = 5.5  # a Gaussian's opacity is below exp(-30) beyond 5.5 sigma (splatting's _SKIP_M2)
 
 
 @dataclass(frozen=True)
@@ -178,10 +179,9 @@ def periodic(textons: Textons, margin: float, elements_from: int = 0) -> Textons
     """The textons and their copies shifted by whole canvases that reach into a ``margin``
     (normalized units) around the canvas: the torus unrolled. Textons before
     ``elements_from`` (the background layer) are not repeated."""
-    from neuraltex.texton_kinds import texton_area
-
     w, h = textons.canvas
-    reach = (texton_area(textons)[0] / torch.pi).sqrt() + margin  # (K,) ~ 2 sigma + margin
+    sigma = torch.linalg.eigvalsh(textons.cov[0])[:, 1].clamp_min(0).sqrt()  # (K,) major axis
+    reach = TAIL * sigma + margin  # (K,)
     x, y = textons.mu[0, :, 0], textons.mu[0, :, 1]
     copies = [textons]
     for i in (-1, 0, 1):
