@@ -214,3 +214,15 @@ def decode_arranged(model, textons: Textons, size: tuple[int, int], tileable: bo
     with torch.no_grad():
         out = decode_with(model, model.generator, textons, (H + 2 * pad, W + 2 * pad), window)
     return out[0, :, pad:pad + H, pad:pad + W].clamp(0, 1)
+
+
+def synthesize_texture(decoder, textons: Textons, short: int, size: tuple[int, int],
+                       settings: ArrangeSettings = ArrangeSettings(),
+                       on_iteration: Callable | None = None) -> tuple[Tensor, Arrangement]:
+    """(picture (3, H, W), arrangement) of a texture grown to ``size`` = (H, W) at the
+    input's pixel pitch (``short`` px per normalized unit): arrange, then decode."""
+    colours = texton_colours(decoder, textons, short)
+    canvas = (size[1] / short, size[0] / short)
+    arr = arrange(textons, canvas, colours, settings, on_iteration)
+    image = decode_arranged(decoder, arr.textons, size, settings.tileable, len(arr.background))
+    return image, arr

@@ -57,29 +57,22 @@ def _synthesize(args, decoder, textons, size: tuple[int, int], short: int):
     """(image (3, H, W), Arrangement) with a progress bar over the synthesis iterations."""
     from tqdm import tqdm
 
-    from neuraltex.texton_synthesis import (
-        ArrangeSettings,
-        arrange,
-        decode_arranged,
-        texton_colours,
-    )
+    from neuraltex.texton_synthesis import ArrangeSettings, synthesize_texture
 
     settings = ArrangeSettings(tileable=args.tileable, seed=args.seed or 0,
                                iterations=args.iterations)
-    bar = tqdm(total=settings.steps + 1, disable=args.quiet, file=sys.stderr, unit="step",
+    bar = tqdm(total=settings.steps, disable=args.quiet, file=sys.stderr, unit="step",
                desc="arranging", dynamic_ncols=True)
 
     def tick(state) -> None:
         bar.set_postfix(textons=len(state.samples.cluster.unique()),
                         energy=f"{state.energy:.3f}")
         bar.update(1)
+        if bar.n == bar.total:
+            bar.set_description("decoding")
 
     try:
-        canvas = (size[1] / short, size[0] / short)  # the input's pixel pitch
-        arr = arrange(textons, canvas, texton_colours(decoder, textons, short), settings, tick)
-        bar.set_description("decoding")
-        image = decode_arranged(decoder, arr.textons, size, args.tileable, len(arr.background))
-        bar.update(1)
+        image, arr = synthesize_texture(decoder, textons, short, size, settings, tick)
     finally:
         bar.close()
     return image, arr
