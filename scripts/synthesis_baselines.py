@@ -6,7 +6,8 @@ Baselines, each at the output size:
   uniform random positions, over the same stretched background layer, same decoder;
 - ``quilting``: image quilting (Efros and Freeman, SIGGRAPH 2001): square blocks in raster
   order, each the best-matching input block on its overlaps (within ``TOLERANCE`` of the best
-  error, chosen at random), joined along the minimum-error boundary cut.
+  error, or among the ``CHOICES`` best, chosen at random), joined along the minimum-error
+  boundary cut.
 
 Metrics:
 - ``swd``: multi-scale patch sliced Wasserstein distance to the input (cvt.metrics.patch_swd);
@@ -27,6 +28,7 @@ import torch.nn.functional as F
 from cvt.metrics import patch_swd
 
 BLOCK, OVERLAP, STRIDE, TOLERANCE = 48, 8, 3, 0.1  # quilting, pixels
+CHOICES = 4  # quilting: candidate blocks at least
 MIN_SHIFT = 16  # repetition: smallest offset considered, pixels
 
 
@@ -99,7 +101,10 @@ def quilting(image: np.ndarray, size: tuple[int, int], seed: int = 0) -> np.ndar
         for j in range(nx):
             y, x = i * step, j * step
             err = _overlap_errors(image, out, y, x, b)
-            ok = np.argwhere(err <= err.min() * (1 + TOLERANCE) + 1e-9)
+            # within TOLERANCE of the best (Efros-Freeman), but never fewer than CHOICES
+            # blocks: on flat areas the best error is ~0 and one block would repeat forever
+            limit = max(err.min() * (1 + TOLERANCE), np.partition(err.ravel(), CHOICES)[CHOICES])
+            ok = np.argwhere(err <= limit)
             sy, sx = ok[g.integers(len(ok))] * STRIDE
             block = image[sy:sy + b, sx:sx + b]
             keep = np.ones((b, b), bool)  # True: take the new block
