@@ -44,6 +44,10 @@ class PatternOptions:
     tileable: bool = False  # output repeats seamlessly
     domain: Domain | None = None  # fill this region (already fitted to the canvas)
     clip: bool = False  # clip elements crossing the canvas (or domain) border
+    # Element kinds (E,) given by the caller (e.g. texton kinds, neuraltex.texton_synthesis);
+    # the density repair then adds and removes single elements, not composites. None: kinds
+    # from the markup (cvt.kinds.element_kinds).
+    kinds: np.ndarray | None = None
 
 
 @dataclass
@@ -66,7 +70,7 @@ def synthesize_pattern(ex: Exemplar, size: tuple[float, float], cfg: SynthesisCo
     if cut.all():  # nothing whole to copy: the cut pieces are all the exemplar has
         cut[:] = False
         notes.append("every element is cut by the border: pieces used as elements")
-    kinds = element_kinds(ex.elements, cut)
+    kinds = element_kinds(ex.elements, cut) if opts.kinds is None else np.asarray(opts.kinds)
     if method == "random":
         res = run_method(method, ex, size, cfg)
         return Pattern(_placed(res), size, notes, res)
@@ -76,7 +80,8 @@ def synthesize_pattern(ex: Exemplar, size: tuple[float, float], cfg: SynthesisCo
     placed = keep_on_canvas(placed, boxes, cut, out_box, inside)
     if opts.density and (lat is None or opts.domain is not None or opts.tileable):
         area = opts.domain.area if opts.domain is not None else size[0] * size[1]
-        placed = _repair(placed, ex, boxes, cut, kinds, out_box, area, cfg.seed, inside)
+        groups = composites(boxes, cut) if opts.kinds is None else [[e] for e in range(len(kinds))]
+        placed = _repair(placed, ex, boxes, cut, kinds, groups, out_box, area, cfg.seed, inside)
     if opts.tileable:
         from cvt.tileable import wrap_around
 
@@ -108,7 +113,7 @@ def _arrange(ex, size, cfg, method, opts, boxes, cut, kinds, notes, on_iteration
     return [], None, None
 
 
-def _repair(placed, ex, boxes, cut, kinds, out_box, area, seed, inside):
+def _repair(placed, ex, boxes, cut, kinds, groups, out_box, area, seed, inside):
     """No clashes the exemplar never shows, companions paired, each kind at its density."""
     rates = kind_rates(boxes, kinds, cut, ex.viewbox)
     pairs = companion_kinds(boxes, kinds, cut)
@@ -116,8 +121,7 @@ def _repair(placed, ex, boxes, cut, kinds, out_box, area, seed, inside):
     rng = np.random.default_rng(seed)
     for _ in range(2):  # thinning can orphan a companion: drop it and repair again
         placed = drop_orphans(placed, boxes, kinds, pairs)
-        placed = repair_density(placed, boxes, kinds, rates, composites(boxes, cut), out_box,
-                                area, rng, inside)
+        placed = repair_density(placed, boxes, kinds, rates, groups, out_box, area, rng, inside)
     return placed
 
 

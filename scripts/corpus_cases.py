@@ -11,7 +11,8 @@ ARGUMENTS = [
     *[("reconstruct", ("--size", *s), "error") for s in (
         ("0", "0"), ("-1",), ("100000",), ("20000", "20000"), ("1", "2", "3"), ("nan",),
         ("1e3",), ("32", "4096"), ("2048", "2048"))],
-    ("reconstruct", ("--size", "16", "24"), "ok"),
+    ("reconstruct", ("--size", "16", "24"), "error"),  # wider than the textons' canvas
+    ("reconstruct", ("--size", "24", "24"), "ok"),
     ("reconstruct", ("--size", "8"), "ok"),
     *[("reconstruct", ("--seed", s), "error") for s in ("-1", str(2**64), "abc", "1.5", "")],
     ("reconstruct", ("--seed", str(2**32 - 1)), "ok"),
@@ -33,6 +34,11 @@ ARGUMENTS = [
     *[("animate", ("--frames", v), "error") for v in ("0", "-3", "100000")],
     ("animate", ("--flow", "shear", "--velocity", "100"), "ok"),
     ("animate", ("--flow", "spiral"), "error"),
+    *[("synthesize", ("--scale", v), "error") for v in ("0", "-1", "nan", "inf", "9")],
+    *[("synthesize", s, "error") for s in (("--size", "64", "64"), ("--iterations", "0"),
+                                           ("--preview-textons", "{o}/p.png"))],
+    ("synthesize", (), "ok"),
+    ("synthesize", ("--tileable", "--seed", "3"), "ok"),
     *[("stylize", ("--scale", v), "error") for v in ("0", "inf", "-1", "nan", "1e-9")],
     *[("stylize", ("--patch", v), "error") for v in ("-1", "0", "100000")],
     *[("stylize", ("--overlap", v), "error") for v in ("1", "-0.1", "0.95")],

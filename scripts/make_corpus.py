@@ -151,6 +151,8 @@ def command(name: str, src: str, extra: tuple = ()) -> list[str]:
         "stylize": ["stylize", src, b, "-o", f"{o}/st.png", "--patch", "32"],
         "textons": ["textons", src],
         "fit": ["fit", src, "-o", f"{o}/f.ntex", "--steps", "2"],
+        "synthesize": ["synthesize", src, "-o", f"{o}/sy.png", "--scale", "1.5",
+                       "--iterations", "1", "--quiet"],
         "model-info": ["model-info"],
     }[name]
     return argv + list(extra)

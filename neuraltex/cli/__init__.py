@@ -36,7 +36,7 @@ class _Version(argparse.Action):
 
 
 def build_parser() -> argparse.ArgumentParser:
-    from neuraltex.cli import codec, edit, fit, vectorize
+    from neuraltex.cli import codec, edit, fit, synthesize, vectorize
 
     parser = OneLineParser(
         prog="neuraltex",
@@ -49,6 +49,7 @@ def build_parser() -> argparse.ArgumentParser:
     fit.add_commands(sub)
     vectorize.add_commands(sub)
     edit.add_commands(sub)
+    synthesize.add_commands(sub)
     return parser
 
 

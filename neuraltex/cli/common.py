@@ -144,12 +144,26 @@ def output_size(size: list[int] | None, canvas: tuple[float, float], default_sho
     if size and len(size) > 2:
         raise InputError(f"--size takes N (short side) or H W, got {len(size)} numbers")
     if size and len(size) == 2:
+        check_covered(size, canvas)
         return lim.check_output(size[0], size[1])
     short = size[0] if size else default_short
     w, h = canvas
     lim.check_output(h, w, "canvas")  # refuses extreme aspect ratios before scaling
     s = short / min(w, h)
     return lim.check_output(max(1, round(h * s)), max(1, round(w * s)))
+
+
+def check_covered(size: list[int], canvas: tuple[float, float], tol: float = 0.02) -> None:
+    """InputError when a picture of ``size`` = (H, W) would show more than the textons'
+    ``canvas`` (w, h): the decode window (short side = 1) would reach where no texton is."""
+    h, w = size
+    s = min(h, w)
+    if w / s > canvas[0] * (1 + tol) or h / s > canvas[1] * (1 + tol):
+        raise InputError(
+            f"--size {h} {w} is a {w / h:.3g}:1 picture, but the textons cover a "
+            f"{canvas[0] / canvas[1]:.3g}:1 canvas, so part of it would be painted from "
+            "nothing; grow the texture first (neuraltex synthesize TEXTURE --size H W) or "
+            "give --size N")
 
 
 def decode(model: TextonAutoencoder, textons: Textons, size: tuple[int, int],

@@ -139,10 +139,27 @@ def cmd_interpolate(args: argparse.Namespace) -> int:
                   for f, t in _progress("frames")(list(zip(frames, ts, strict=True)))]
         _save_frames(images, args.output, args.fps)
         return 0
+    if args.spatial and args.size and len(args.size) == 2:  # a wide (or tall) picture:
+        ta, tb = (_grown(args, model, t) for t in (ta, tb))  # textons synthesized to fill it
     decoder, (a, b) = common.decoder_for(model, ta, tb, t=0.5 if args.spatial else args.t)
     out = interpolate_spatially(a, b, seed) if args.spatial else interpolate(a, b, args.t, seed)
     common.save(_decode(args, decoder, out, short), args.output)
     return 0
+
+
+def _grown(args: argparse.Namespace, model, tex: common.Texture) -> common.Texture:
+    """The texture with its textons arranged (neuraltex synthesize) over the canvas of
+    ``--size H W`` (short side = the canvas's), so the whole picture has textons."""
+    from dataclasses import replace
+
+    from neuraltex.texton_synthesis import ArrangeSettings, arrange, texton_colours
+
+    h, w = args.size
+    s = min(tex.textons.canvas) / min(h, w)
+    decoder = tex.decoder or model
+    colours = texton_colours(decoder, tex.textons, tex.short)
+    arr = arrange(tex.textons, (w * s, h * s), colours, ArrangeSettings(seed=args.seed or 0))
+    return replace(tex, textons=arr.textons)
 
 
 def cmd_vary(args: argparse.Namespace) -> int:
@@ -291,7 +308,8 @@ def add_commands(sub) -> None:
                    help="blend weight in [0, 1] (default 0.5)")
     g.add_argument("--frames", type=types.integer(2, MAX_COUNT),
                    help=f"a sequence of N frames from t = 0 to 1 (2 to {MAX_COUNT})")
-    g.add_argument("--spatial", action="store_true", help="t from 0 (left) to 1 (right)")
+    g.add_argument("--spatial", action="store_true", help="t from 0 (left) to 1 (right); "
+                   "with --size H W of another aspect, both textures are first grown to it")
     p.add_argument("--fps", type=FPS, default=8, help="frames per second, 0 < fps <= 1000 "
                    "(default 8)")
 

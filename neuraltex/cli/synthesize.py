@@ -1,0 +1,120 @@
+"""The ``neuraltex synthesize`` subcommand: a bigger (or tileable) picture of a texture, its
+textons arranged by cvt's engine (:mod:`neuraltex.texton_synthesis`)."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from neuraltex.cli import args as types
+from neuraltex.cli import common
+from neuraltex.errors import InputError
+
+MAX_SCALE = 8.0  # output side / input side
+MIN_SIDE = 16  # output pixels
+
+
+def cmd_synthesize(args: argparse.Namespace) -> int:
+    """Grow a texture: its textons (of an image, or of a texture file from ``neuraltex fit``,
+    decoded with its tuned decoder) are arranged on a larger canvas by cvt's synthesis, as
+    Gaussian elements with their kind and colour, and decoded at the output size. With
+    --tileable the arrangement wraps around and so does the decode."""
+    from neuraltex.imageio import check_output_path
+
+    check_output_path(args.output)
+    if args.preview_textons is not None:
+        _check_svg(args.preview_textons)
+    model = common.load(args.checkpoint, args.device, args.seed)
+    tex = common.textons_of(model, args.texture, common.limits(args), args.device)
+    decoder, (textons,) = common.decoder_for(model, tex)
+    size = _size(args, textons.canvas, tex.short)
+    image, arr = _synthesize(args, decoder, textons, size, tex.short)
+    common.save(image, args.output)
+    if args.preview_textons is not None:
+        _write_svg(arr, args.preview_textons, size, tex.short)
+    return 0
+
+
+def _size(args: argparse.Namespace, canvas: tuple[float, float], short: int) -> tuple[int, int]:
+    """(H, W) of the output from --size H W or --scale S (pixels of the input: canvas * short)."""
+    h_in, w_in = canvas[1] * short, canvas[0] * short
+    if (args.size is None) == (args.scale is None):
+        raise InputError("give the output size: --size H W or --scale S (one of the two)")
+    if args.size is not None:
+        h, w = args.size
+    else:
+        h, w = round(args.scale * h_in), round(args.scale * w_in)
+    if min(h, w) < MIN_SIDE:
+        raise InputError(f"output {h}x{w} is too small (at least {MIN_SIDE} px a side)")
+    if max(h / h_in, w / w_in) > MAX_SCALE:
+        raise InputError(f"output {h}x{w} is more than {MAX_SCALE:g}x the input "
+                         f"({round(h_in)}x{round(w_in)}) on a side")
+    return common.limits(args).check_output(h, w)
+
+
+def _synthesize(args, decoder, textons, size: tuple[int, int], short: int):
+    """(image (3, H, W), Arrangement) with a progress bar over the synthesis iterations."""
+    from tqdm import tqdm
+
+    from neuraltex.texton_synthesis import ArrangeSettings, synthesize_texture
+
+    settings = ArrangeSettings(tileable=args.tileable, seed=args.seed or 0,
+                               iterations=args.iterations)
+    bar = tqdm(total=settings.steps, disable=args.quiet, file=sys.stderr, unit="step",
+               desc="arranging", dynamic_ncols=True)
+
+    def tick(state) -> None:
+        bar.set_postfix(textons=len(state.samples.cluster.unique()),
+                        energy=f"{state.energy:.3f}")
+        bar.update(1)
+        if bar.n == bar.total:
+            bar.set_description("decoding")
+
+    try:
+        image, arr = synthesize_texture(decoder, textons, short, size, settings, tick)
+    finally:
+        bar.close()
+    return image, arr
+
+
+def _check_svg(path: Path) -> None:
+    from neuraltex.fileio import check_writable
+
+    if path.suffix.lower() != ".svg":
+        raise InputError(f"{path}: --preview-textons writes an .svg")
+    check_writable(path)
+
+
+def _write_svg(arr, path: Path, size: tuple[int, int], short: int) -> None:
+    """The arranged textons as SVG ellipses in their colours, over the background's (or the
+    ground's) colour, ``short`` pixels per unit (the raster output's size)."""
+    from dataclasses import replace
+
+    from cvt.from_textons import with_backdrop
+    from cvt.svg import to_svg
+    from neuraltex.fileio import write_text_atomic
+
+    canvas = arr.textons.canvas
+    text = to_svg(replace(arr.exemplar, unit_scale=(short, "")), arr.svg_placements, canvas)
+    text = with_backdrop(text, arr.background_fill)
+    write_text_atomic(path, text)
+    print(f"wrote {path} ({len(arr.svg_placements)} ellipses, {size[1]}x{size[0]} canvas)")
+
+
+def add_commands(sub) -> None:
+    p = common.model_command(
+        sub, "synthesize", cmd_synthesize, "grow a texture: a bigger (or tileable) picture "
+        "of it, its textons arranged by cvt", "texture",
+        f"output picture ({common.IMAGE_OUT})", size=False)
+    p.add_argument("--size", type=types.integer(1, 2**16), nargs=2, metavar=("H", "W"),
+                   help="output size in pixels (any aspect ratio)")
+    p.add_argument("--scale", type=types.number(0, MAX_SCALE, open_lo=True),
+                   help="output size as a multiple of the input's")
+    p.add_argument("--tileable", action="store_true",
+                   help="the output repeats without a seam when tiled")
+    p.add_argument("--preview-textons", type=Path, metavar="OUT.svg",
+                   help="also write the arranged textons as SVG ellipses")
+    p.add_argument("--iterations", type=types.integer(1, 50), default=3,
+                   help="synthesis iterations (search + assignment) per level (default 3)")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")

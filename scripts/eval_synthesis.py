@@ -1,0 +1,194 @@
+"""Benchmark of ``neuraltex synthesize`` on the real textures, beside its baselines.
+
+For each texture of data/real_textures (256 px): ``neuraltex fit --steps N`` (cached), then at
+every output size ours (the texture file's textons arranged by cvt, tuned decoder), 2 x 2 tiling
+of the input, random placement of the input's textons (same decoder and background layer) and
+image quilting (Efros-Freeman 2001), all scored against the input by multi-scale patch-SWD, a
+random-CNN Gram distance and the repetition measure (scripts/synthesis_baselines.py says what
+each is); with ``--tileable`` also ours tileable at the first size, scored by its seam. Prints
+one row per texture and size (``recon``: the tuned reconstruction of the input at its own
+size, the decoder's ceiling), then the targets of the issue; ``--gallery`` writes input |
+tiling | quilting | ours for a few textures.
+
+    python scripts/eval_synthesis.py --steps 300 --cache /tmp/eval_synthesis --tileable \
+        --gallery docs/synthesis_gallery.jpg
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import torch
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(ROOT / "scripts"))
+
+import synthesis_baselines as base  # noqa: E402
+
+from neuraltex.texton_synthesis import (  # noqa: E402
+    ArrangeSettings,
+    decode_arranged,
+    layers,
+    place,
+    synthesize_texture,
+)
+
+METHODS = ("ours", "tiling", "random", "quilting", "recon")  # recon: ours' ceiling
+GALLERY = ("brick", "leopard", "java_beans", "gravel", "leaves", "cells_ihc")
+
+
+def texture_file(image: Path, cache: Path, steps: int) -> Path:
+    """The cached texture file of ``image`` (``neuraltex fit --steps``; fitted if missing)."""
+    from neuraltex.cli import main
+
+    out = cache / f"{image.stem}.ntex"
+    if not out.exists():
+        cache.mkdir(parents=True, exist_ok=True)
+        if main(["fit", str(image), "-o", str(out), "--steps", str(steps), "--seed", "0"]):
+            raise SystemExit(f"fit failed on {image}")
+    return out
+
+
+def outputs(model, tex, image: np.ndarray, size, seed: int) -> tuple[dict, float]:
+    """({method: picture (H, W, 3)}, seconds of ours) at ``size`` = (H, W)."""
+    textons, decoder = tex.textons, tex.decoder
+    t = time.perf_counter()
+    ours, _ = synthesize_texture(decoder, textons, tex.short, size, ArrangeSettings(seed=seed))
+    seconds = time.perf_counter() - t
+    rows, _, back = layers(textons)
+    canvas = (size[1] / tex.short, size[0] / tex.short)
+    placed = base.random_placement(textons, rows, back, size, tex.short, seed)
+    rand = decode_arranged(decoder, place(textons, rows, placed, back, canvas), size,
+                           background=len(back))
+    from neuraltex.cli.common import decode
+
+    recon = decode(decoder, textons, image.shape[:2])[0]  # the input size: a reference only
+    pics = {"ours": ours, "tiling": base.tiling(image, size), "random": rand,
+            "quilting": base.quilting(image, size, seed), "recon": recon}
+    return {k: _hwc(v) for k, v in pics.items()}, seconds
+
+
+def _hwc(x) -> np.ndarray:
+    if isinstance(x, torch.Tensor):
+        return x.permute(1, 2, 0).cpu().numpy()
+    return np.asarray(x, np.float32)
+
+
+def scores(image: np.ndarray, pics: dict) -> dict:
+    return {m: {"swd": base.swd(image, p), "gram": base.gram_distance(image, p),
+                "rep": base.repetition(p)} for m, p in pics.items()}
+
+
+def tileable_seam(tex, image: np.ndarray, size, seed: int) -> dict:
+    pic, _ = synthesize_texture(tex.decoder, tex.textons, tex.short, size,
+                                ArrangeSettings(seed=seed, tileable=True))
+    pic = _hwc(pic)
+    wrap, inside = base.seam_swd(pic, image)
+    return {"seam": base.seam(pic), "seam_swd": wrap, "inner_swd": inside,
+            "tiling_seam": base.seam(base.tiling(image, size))}
+
+
+def row_text(name: str, size, sc: dict, seconds: float, rep_in: float) -> str:
+    cells = " ".join(f"{sc[m]['swd']:7.1f} {sc[m]['gram']:5.3f}" for m in METHODS)
+    return (f"{name:12s} {size[0]}x{size[1]:<4d} {cells}   rep in/tile/ours/quilt {rep_in:.2f}/"
+            f"{sc['tiling']['rep']:.2f}/{sc['ours']['rep']:.2f}/{sc['quilting']['rep']:.2f}"
+            f"  {seconds:5.1f} s")
+
+
+def summary(results: list[dict]) -> list[str]:
+    lines = []
+    for size in sorted({r["size"] for r in results}):
+        rs = [r for r in results if r["size"] == size]
+        n = len(rs)
+        beat_rand = sum(r["sc"]["ours"]["swd"] < r["sc"]["random"]["swd"] for r in rs)
+        beat_q = sum(r["sc"]["ours"]["swd"] < r["sc"]["quilting"]["swd"]
+                     or r["sc"]["ours"]["gram"] < r["sc"]["quilting"]["gram"] for r in rs)
+        no_rep = sum(abs(r["sc"]["ours"]["rep"] - r["rep_in"])
+                     <= abs(r["sc"]["ours"]["rep"] - r["sc"]["tiling"]["rep"]) for r in rs)
+        means = {m: (np.mean([r["sc"][m]["swd"] for r in rs]),
+                     np.mean([r["sc"][m]["gram"] for r in rs])) for m in METHODS}
+        lines += [f"{size[0]}x{size[1]} ({n} textures): mean swd/gram "
+                  + ", ".join(f"{m} {s:.1f}/{g:.3f}" for m, (s, g) in means.items()),
+                  f"  ours < random placement on patch-SWD: {beat_rand}/{n} (target: all)",
+                  f"  ours < quilting on patch-SWD or gram: {beat_q}/{n} (target >= 60%)",
+                  f"  repetition not closer to the tiling's than to the input's: {no_rep}/{n}",
+                  f"  ours seconds: mean {np.mean([r['seconds'] for r in rs]):.1f}, "
+                  f"max {np.max([r['seconds'] for r in rs]):.1f} (target <= 30 at 512x512)"]
+    seams = [r["tile"] for r in results if "tile" in r]
+    if seams:
+        ok = sum(s["seam_swd"] <= 1.1 * s["inner_swd"] for s in seams)
+        lines += [f"tileable ({len(seams)}): seam step ratio mean "
+                  f"{np.mean([s['seam'] for s in seams]):.2f} (tiling of the input: "
+                  f"{np.mean([s['tiling_seam'] for s in seams]):.2f}); patch-SWD across the wrap "
+                  f"<= 1.1 x inside on {ok}/{len(seams)}"]
+    return lines
+
+
+def gallery(rows: list[tuple[np.ndarray, dict]], path: Path) -> None:
+    """input | tiling | quilting | ours, one texture a row (JPEG to keep docs small)."""
+    from PIL import Image
+
+    tiles = []
+    for image, pics in rows:
+        size = pics["ours"].shape[:2]
+        cell = np.ones((*size, 3), np.float32)
+        cell[:image.shape[0], :image.shape[1]] = image
+        tiles.append(np.concatenate([cell, pics["tiling"], pics["quilting"], pics["ours"]], 1))
+    pic = (np.clip(np.concatenate(tiles, 0), 0, 1) * 255).round().astype(np.uint8)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    Image.fromarray(pic).save(path, quality=88)
+    print(f"wrote {path}")
+
+
+def main() -> None:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--textures", type=Path, default=ROOT / "data" / "real_textures")
+    p.add_argument("--cache", type=Path, default=Path("/tmp/eval_synthesis"),
+                   help="texture files (.ntex) are fitted once and kept here")
+    p.add_argument("--steps", type=int, default=300, help="fit steps per texture")
+    p.add_argument("--sizes", nargs="+", default=["512x512", "256x768"], help="HxW outputs")
+    p.add_argument("--only", nargs="+", help="texture names (default: all)")
+    p.add_argument("--tileable", action="store_true", help="also score ours tileable")
+    p.add_argument("--gallery", type=Path, help="write the gallery (JPEG) here")
+    p.add_argument("--seed", type=int, default=0)
+    args = p.parse_args()
+    torch.set_num_threads(1)
+    from neuraltex.cli import common
+    from neuraltex.imageio import load_image
+    from neuraltex.limits import Limits
+
+    model = common.load(None)
+    sizes = [tuple(int(v) for v in s.split("x")) for s in args.sizes]
+    names = args.only or sorted((f.stem for f in args.textures.glob("*.png")),
+                                key=lambda n: (n not in GALLERY, n))  # the gallery's first
+    results, rows = [], []
+    for name in names:
+        path = args.textures / f"{name}.png"
+        tex = common.textons_of(model, texture_file(path, args.cache, args.steps), Limits())
+        image = load_image(path).permute(1, 2, 0).numpy()
+        rep_in = base.repetition(image)
+        for k, size in enumerate(sizes):
+            pics, seconds = outputs(model, tex, image, size, args.seed)
+            r = {"name": name, "size": size, "sc": scores(image, pics), "seconds": seconds,
+                 "rep_in": rep_in}
+            if args.tileable and k == 0:
+                r["tile"] = tileable_seam(tex, image, size, args.seed)
+            results.append(r)
+            print(row_text(name, size, r["sc"], seconds, rep_in)
+                  + (f"  seam {r['tile']['seam']:.2f} swd wrap/in {r['tile']['seam_swd']:.1f}/"
+                     f"{r['tile']['inner_swd']:.1f}" if "tile" in r else ""), flush=True)
+            if k == 0 and name in GALLERY:
+                rows.append((image, pics))
+                if args.gallery:
+                    gallery(rows, args.gallery)
+    print(f"\ncolumns: swd gram for {', '.join(METHODS)}")
+    print("\n".join(summary(results)))
+
+
+if __name__ == "__main__":
+    main()

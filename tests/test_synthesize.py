@@ -1,0 +1,171 @@
+"""`neuraltex synthesize` and the texton arrangement behind it (neuraltex.texton_synthesis,
+cvt.gaussians): tiny texture files fitted with the shipped model, in-process CLI calls."""
+
+import hashlib
+from dataclasses import replace
+
+import numpy as np
+import pytest
+import torch
+from PIL import Image
+
+from cvt.gaussians import LEVEL, ellipse_ring, gaussian_exemplar
+from neuraltex.cli import main
+from neuraltex.data.generator import generate
+from neuraltex.texton_synthesis import ArrangeSettings, arrange, decode_arranged, periodic
+from tests.conftest import make_textons
+
+pytestmark = pytest.mark.usefixtures("one_thread")
+
+
+@pytest.fixture(scope="module")
+def files(tmp_path_factory):
+    d = tmp_path_factory.mktemp("synth")
+    for name, index in (("a.png", 0), ("b.png", 3)):
+        pic = (generate(index, 0, (32, 40)).image * 255).round().astype(np.uint8)
+        Image.fromarray(pic).save(d / name)
+    assert main(["fit", str(d / "a.png"), "-o", str(d / "a.ntex"), "--steps", "30",
+                 "--segmenter", "felzenszwalb"]) == 0
+    return d
+
+
+def _synth(files, out, *extra):
+    return main(["synthesize", str(files / "a.ntex"), "-o", str(out), "--quiet",
+                 "--iterations", "1", *extra])
+
+
+def _digest(path) -> str:
+    return hashlib.sha256(np.asarray(Image.open(path)).tobytes()).hexdigest()
+
+
+def test_any_size_and_aspect_and_a_matching_svg(files, tmp_path):
+    out, svg = tmp_path / "o.png", tmp_path / "o.svg"
+    assert _synth(files, out, "--size", "40", "100", "--preview-textons", str(svg)) == 0
+    with Image.open(out) as im:
+        assert im.size == (100, 40)
+    text = svg.read_text()
+    assert 'viewBox="0 0 3.125 1.25"' in text  # the output canvas, input pixel pitch (32 px)
+    assert text.count("<ellipse") > 4
+    assert main(["synthesize", str(files / "a.ntex"), "-o", str(tmp_path / "s.png"), "--quiet",
+                 "--iterations", "1", "--scale", "1.5"]) == 0
+    with Image.open(tmp_path / "s.png") as im:
+        assert im.size == (60, 48)  # 1.5 x (40 x 32)
+
+
+def test_deterministic_per_seed(files, tmp_path):
+    runs = {}
+    for name, seed in (("a", "1"), ("b", "1"), ("c", "2")):
+        assert _synth(files, tmp_path / f"{name}.png", "--scale", "2", "--seed", seed) == 0
+        runs[name] = _digest(tmp_path / f"{name}.png")
+    assert runs["a"] == runs["b"]
+    assert runs["a"] != runs["c"]
+
+
+def test_plain_images_synthesize_too(files, tmp_path):
+    assert main(["synthesize", str(files / "b.png"), "-o", str(tmp_path / "b.png"), "--quiet",
+                 "--iterations", "1", "--scale", "2"]) == 0
+
+
+@pytest.mark.parametrize("extra", [
+    [],                                          # no size
+    ["--size", "64", "64", "--scale", "2"],      # both
+    ["--size", "8", "64"],                       # too small
+    ["--size", "32", "400"],                     # more than 8x the input on a side
+    ["--scale", "20"],                           # out of range
+    ["--scale", "2", "--preview-textons", "x.png"],
+])
+def test_bad_arguments_exit_2(files, tmp_path, extra, capsys):
+    assert _synth(files, tmp_path / "o.png", *extra) == 2
+    assert not (tmp_path / "o.png").exists()
+    assert "Traceback" not in capsys.readouterr().err
+
+
+def test_wrong_output_suffix_exit_2(files, tmp_path):
+    assert _synth(files, tmp_path / "o.txt", "--scale", "2") == 2
+
+
+def _tiny_texture(seed: int = 0, background: bool = True):
+    """40 small textons on the unit canvas, and one canvas-sized background texton first."""
+    t = make_textons(B=1, K=41, C=4, seed=seed, scale=0.02)
+    delta = torch.ones(1, 41)
+    cov, mu = t.cov.clone(), t.mu.clone()
+    if background:
+        cov[0, 0] = torch.eye(2) * 0.5
+        mu[0, 0] = torch.tensor([0.5, 0.5])
+    order = torch.argsort(torch.argsort(-torch.linalg.det(cov[0])))[None]  # large behind
+    return replace(t, cov=cov, mu=mu, delta=delta, order=order)
+
+
+def _colours(t):
+    g = torch.Generator().manual_seed(0)
+    return torch.rand(t.num_textons, 3, generator=g), torch.rand(3, generator=g)
+
+
+def test_background_covers_the_output_and_fields_travel_with_their_texton():
+    t = _tiny_texture()
+    arr = arrange(t, (3.0, 1.5), _colours(t), ArrangeSettings(iterations=1))
+    out = arr.textons
+    assert out.canvas == (3.0, 1.5)
+    assert arr.background.tolist() == [0]
+    from neuraltex.splatting import opacity_maps
+
+    o = opacity_maps(out, (30, 60), window=(0, 0, 3.0, 1.5), composite=False)[0, 0]
+    assert float(o.min()) > 0.99  # the background layer is opaque over the whole canvas
+    assert int(out.order[0, 0]) == int(out.order[0].min())  # and behind every element
+    src = torch.tensor([arr.rows[p[0]] for p in arr.placements])
+    assert torch.equal(out.f[0, 1:], t.f[0, src])  # per-texton fields copied by index
+    assert torch.equal(out.cov[0, 1:], t.cov[0, src])
+    shift = torch.tensor([[p[1], p[2]] for p in arr.placements], dtype=out.mu.dtype)
+    assert torch.allclose(out.mu[0, 1:], t.mu[0, src] + shift)
+    assert len(arr.placements) > 2 * 40  # 4.5x the area: many more elements than the input
+
+
+def test_tileable_decode_wraps_around(tiny_checkpoint):
+    """Rolling the arranged textons by half the canvas (mod the canvas) rolls the decoded
+    picture: the wrap-around decode has no seam (a plain decode fails this)."""
+    from neuraltex.cli.common import load
+
+    model = load(tiny_checkpoint)
+    t = _tiny_texture(background=False)
+    t = replace(t, f=torch.randn(1, 41, model.generator.feature_channels - 2))
+    arr = arrange(t, (2.0, 1.0), _colours(t), ArrangeSettings(iterations=1, tileable=True))
+    out = arr.textons
+    H, W = 32, 64
+    img = decode_arranged(model, out, (H, W), tileable=True)
+    mu = out.mu.clone()
+    mu[..., 0] = torch.remainder(mu[..., 0] + 1.0, 2.0)
+    rolled = decode_arranged(model, replace(out, mu=mu), (H, W), tileable=True)
+    assert torch.allclose(rolled, torch.roll(img, W // 2, dims=-1), atol=2e-3)
+    plain = decode_arranged(model, replace(out, mu=mu), (H, W), tileable=False)
+    assert not torch.allclose(plain, torch.roll(img, W // 2, dims=-1), atol=2e-3)
+
+
+def test_periodic_copies_reach_the_margin_only():
+    t = _tiny_texture(background=False)
+    t = replace(t, canvas=(1.0, 1.0))
+    p = periodic(t, 0.1)
+    assert p.num_textons > t.num_textons
+    x = p.mu[0, t.num_textons:]
+    assert bool(((x > -1.0) & (x < 2.0)).all())  # copies are one canvas away at most
+
+
+def test_gaussian_element_outline_is_the_uniform_region():
+    mu, cov = np.array([1.0, 2.0]), np.array([[0.04, 0.01], [0.01, 0.02]])
+    ring = ellipse_ring(mu, cov)
+    d = ring - mu
+    m2 = np.einsum("ni,ij,nj->n", d, np.linalg.inv(cov), d)
+    assert np.allclose(m2, LEVEL ** 2)
+    ex = gaussian_exemplar(mu[None], cov[None], np.zeros((1, 2)), (3.0, 4.0))
+    assert ex.viewbox == (0.0, 0.0, 3.0, 4.0) and ex.elements[0].index == 0
+    with pytest.raises(ValueError):
+        gaussian_exemplar(mu[None], cov[None], np.zeros((2, 2)), (3.0, 4.0))
+
+
+def test_size_beyond_the_canvas_is_refused_and_spatial_grows(files, tmp_path, capsys):
+    a = str(files / "a.ntex")
+    assert main(["reconstruct", a, "-o", str(tmp_path / "r.png"), "--size", "32", "96"]) == 2
+    assert "neuraltex synthesize" in capsys.readouterr().err
+    out = tmp_path / "wide.png"
+    assert main(["interpolate", a, a, "-o", str(out), "--spatial", "--size", "32", "96"]) == 0
+    with Image.open(out) as im:
+        assert im.size == (96, 32)
