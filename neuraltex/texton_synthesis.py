@@ -68,12 +68,14 @@ class Arrangement:
     result: object = None  # cvt's SynthesisResult (timings, energies)
 
 
-def layers(textons: Textons, seed: int = 0) -> tuple[Tensor, Tensor, Tensor]:
+def layers(textons: Textons, seed: int = 0,
+           channels: int | None = None) -> tuple[Tensor, Tensor, Tensor]:
     """(element indices (E,), their kinds (E,), background indices (G,)) of one texton set:
-    elements in draw order (bottom first)."""
+    elements in draw order (bottom first). ``channels``: how much of f the kinds compare (the
+    decoder's feature width: detail sprites left out, :func:`texton_kinds`)."""
     from neuraltex.texton_kinds import texton_kinds
 
-    kinds = texton_kinds(textons, seed=seed)[0].cpu()
+    kinds = texton_kinds(textons, seed=seed, channels=channels)[0].cpu()
     alive = (textons.delta[0] > 0.5).cpu()
     elems = torch.nonzero(alive & (kinds >= 0)).flatten()
     elems = elems[torch.argsort(textons.order[0].cpu()[elems], stable=True)]
@@ -121,15 +123,15 @@ def texton_exemplar(textons: Textons, rows: Tensor, kinds: Tensor, colours: Tens
 
 def arrange(textons: Textons, canvas: tuple[float, float], colours: tuple[Tensor, Tensor],
             settings: ArrangeSettings = ArrangeSettings(),
-            on_iteration: Callable | None = None) -> Arrangement:
+            on_iteration: Callable | None = None, channels: int | None = None) -> Arrangement:
     """Arrange one texton set (1, K) on ``canvas`` = (w, h) (normalized units of the input:
     the elements keep their size) with cvt's engine. ``colours``: (per texton (K, 3), ground
-    (3,)) (:func:`texton_colours`)."""
+    (3,)) (:func:`texton_colours`); ``channels``: see :func:`layers`."""
     from cvt.pattern import PatternOptions, synthesize_pattern
     from cvt.synthesis import SynthesisConfig
     from neuraltex.errors import InputError
 
-    elems, kinds, back = layers(textons, settings.seed)
+    elems, kinds, back = layers(textons, settings.seed, channels)
     if len(elems) < 2:
         raise InputError(f"the texture has {len(elems)} element texton(s) besides its "
                          "background: nothing to arrange")
@@ -205,8 +207,6 @@ def decode_arranged(model, textons: Textons, size: tuple[int, int], tileable: bo
     """Decode an arrangement at ``size`` = (H, W) over its whole canvas; ``tileable``:
     on the padded torus, cropped, so that the picture wraps around. ``background``: how many
     leading textons are the background layer. Shape: -> (3, H, W) in [0, 1]."""
-    from neuraltex.fit import decode_with
-
     H, W = size
     w, h = textons.canvas
     pad = WRAP_MARGIN_PX if tileable else 0
@@ -215,7 +215,7 @@ def decode_arranged(model, textons: Textons, size: tuple[int, int], tileable: bo
         textons = periodic(textons, m, background)
     window = (-m, -m, w + m, h + m)  # square pixels: the canvas has the aspect of size
     with torch.no_grad():
-        out = decode_with(model, model.generator, textons, (H + 2 * pad, W + 2 * pad), window)
+        out = model.decode(textons, (H + 2 * pad, W + 2 * pad), window=window)
     return out[0, :, pad:pad + H, pad:pad + W].clamp(0, 1)
 
 
@@ -226,6 +226,7 @@ def synthesize_texture(decoder, textons: Textons, short: int, size: tuple[int, i
     input's pixel pitch (``short`` px per normalized unit): arrange, then decode."""
     colours = texton_colours(decoder, textons, short)
     canvas = (size[1] / short, size[0] / short)
-    arr = arrange(textons, canvas, colours, settings, on_iteration)
+    arr = arrange(textons, canvas, colours, settings, on_iteration,
+                  decoder.generator.feature_channels - 2)
     image = decode_arranged(decoder, arr.textons, size, settings.tileable, len(arr.background))
     return image, arr

@@ -60,7 +60,7 @@ def outputs(model, tex, image: np.ndarray, size, seed: int) -> tuple[dict, float
     t = time.perf_counter()
     ours, _ = synthesize_texture(decoder, textons, tex.short, size, ArrangeSettings(seed=seed))
     seconds = time.perf_counter() - t
-    rows, _, back = layers(textons)
+    rows, _, back = layers(textons, channels=decoder.generator.feature_channels - 2)
     canvas = (size[1] / tex.short, size[0] / tex.short)
     placed = base.random_placement(textons, rows, back, size, tex.short, seed)
     rand = decode_arranged(decoder, place(textons, rows, placed, back, canvas), size,
