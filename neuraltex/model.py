@@ -24,7 +24,7 @@ from neuraltex.model_config import ModelConfig
 from neuraltex.nn_utils import shrink_short_side
 from neuraltex.segmentation import SegmentationNet
 from neuraltex.splatting import Splat, splat
-from neuraltex.texton_detail import DetailSampler, split
+from neuraltex.texton_detail import render_detail, split
 from neuraltex.textons import Textons
 
 
@@ -115,8 +115,7 @@ class TextonAutoencoder(nn.Module):
         image = (G(s.features, s.max_opacity) + 1) / 2  # G ends in tanh
         if sprites is None:
             return image
-        detail = DetailSampler(plain, size, window, self.cutoff).render(sprites)
-        return (image + detail).clamp(0, 1)
+        return (image + render_detail(plain, sprites, size, window, self.cutoff)).clamp(0, 1)
 
     def reconstruct(self, image: Tensor) -> Tensor:
         return self.decode(self.encode(image).textons, tuple(image.shape[-2:]))

@@ -62,17 +62,13 @@ def blended_model(a, b, t: float):
     return out
 
 
-def with_offsets(textons: Textons, width: int | None = None) -> Textons:
-    """Textons in a narrower layout (the base model's f_a, or [f_a, d] without sprites) ->
-    ``width`` channels (default: [f_a, d]), padded with zeros: no colour offset (the texton
-    keeps the colour G gives it) and no detail."""
+def with_offsets(textons: Textons) -> Textons:
+    """Textons of the base model (f: C_a channels) -> the tuned layout [f_a, d] with d = 0
+    (the texton keeps the colour G gives it)."""
     from dataclasses import replace
 
-    B, K, C = textons.f.shape
-    width = C + COLOUR if width is None else width
-    if width < C:
-        raise ValueError(f"cannot narrow {C} feature channels to {width}")
-    return replace(textons, f=torch.cat([textons.f, textons.f.new_zeros(B, K, width - C)], -1))
+    return replace(textons, f=torch.cat([textons.f, textons.f.new_zeros(
+        *textons.f.shape[:2], COLOUR)], dim=-1))
 
 
 def combine(model, items: list[tuple[Textons, object]], t: float | None = None):
@@ -95,7 +91,7 @@ def combine(model, items: list[tuple[Textons, object]], t: float | None = None):
     if t is not None and len(tuned) > 1:
         decoder = blended_model(tuned[0], tuned[1], t)
     base = decoder.generator.feature_channels - 2  # [f_a, d]
-    sets = [with_offsets(textons, base) if dec is None else textons for textons, dec in items]
+    sets = [with_offsets(textons) if dec is None else textons for textons, dec in items]
     sides = [sprite_side(s.feature_dim - base) for s in sets]
     if not any(sides):
         return decoder, sets

@@ -38,6 +38,7 @@ from neuraltex.fit import FitSettings, fit_texture, psnr  # noqa: E402
 from neuraltex.imageio import load_image  # noqa: E402
 from neuraltex.model import DEFAULT_MODEL, build_model, load_model  # noqa: E402
 from neuraltex.reshuffle import reshuffle  # noqa: E402
+from neuraltex.texton_detail import split  # noqa: E402
 from neuraltex.texton_kinds import texton_kinds  # noqa: E402
 from neuraltex.texture_file import load_texture, save_texture  # noqa: E402
 from neuraltex.tuned_decoder import tuned_model  # noqa: E402
@@ -101,7 +102,7 @@ def evaluate(model, image: torch.Tensor, settings: FitSettings, workdir: Path) -
         shuffled = reshuffle(tex.textons, seed=1, kinds=kinds)
         shuf = decoder.decode(shuffled, size)[0]
         row["edit_s"] = time.perf_counter() - start
-        shuf0 = decoder.decode(replace(shuffled, f=shuffled.f[..., :plain]), size)[0]
+        shuf0 = decoder.decode(split(shuffled, plain)[0], size)[0]  # sprites dropped
         rand = decoder.decode(random_placement(tex.textons), size)[0]
     row.update(fit=psnr(rec, image), plain=fit.plain_psnr, ssim_fit=ssim(rec, image),
                swd_rec=swd(image, rec), swd_shuf=swd(image, shuf), swd_shuf0=swd(image, shuf0),

@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import argparse
 import sys
-from dataclasses import replace
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -26,6 +25,7 @@ from neuraltex.cli.common import textons_of  # noqa: E402
 from neuraltex.imageio import save_pil, stack_rows  # noqa: E402
 from neuraltex.limits import Limits  # noqa: E402
 from neuraltex.model import DEFAULT_MODEL, load_model  # noqa: E402
+from neuraltex.texton_detail import split  # noqa: E402
 from neuraltex.texton_synthesis import ArrangeSettings, synthesize_texture  # noqa: E402
 
 
@@ -44,7 +44,7 @@ def main() -> None:
         plain = tex.decoder.generator.feature_channels - 2  # [f_a, d]; sprites after
         tiles = []
         for label, t in (("with sprites", tex.textons),
-                         ("G alone", replace(tex.textons, f=tex.textons.f[..., :plain]))):
+                         ("G alone", split(tex.textons, plain)[0])):
             img, _ = synthesize_texture(tex.decoder, t, tex.short, (args.size, args.size),
                                         ArrangeSettings(seed=args.seed))
             tiles.append((f"{path.stem}: {label}", img))
