@@ -13,6 +13,8 @@ inversion). Here:
    render textons, not one fixed picture;
 4. what G still misses is fitted, by least squares, as a small RGB sprite per texton in its
    own frame (:mod:`neuraltex.texton_detail`): appearance that moves with the texton.
+5. the textons are grouped into elements, the objects they make together
+   (:mod:`neuraltex.texton_elements`), so a reshuffle can move whole objects.
 
 E_FC and E_s stay frozen, so features of every tuned texture live in the base model's feature
 space (transfer and interpolation between texture files stay meaningful), and a texture is
@@ -36,6 +38,7 @@ from neuraltex.nn_utils import resize
 from neuraltex.segmenters import MAX_SEGMENTS, METHODS, segment_labels, soft_masks
 from neuraltex.splatting import splat
 from neuraltex.texton_detail import DetailSampler, attach, auto_side
+from neuraltex.texton_elements import group_textons
 from neuraltex.textons import Textons
 from neuraltex.tuned_decoder import ColourOffsetGenerator
 
@@ -74,6 +77,7 @@ class TextureFit:
     base_psnr: float        # before tuning (the textons' colours already set), dB
     plain_psnr: float       # after tuning G, before the detail sprites, dB
     detail_seconds: float   # fitting the sprites
+    elements: np.ndarray | None = None  # (K,) element of each texton (neuraltex.texton_elements)
 
 
 def psnr(x: Tensor, y: Tensor) -> float:
@@ -244,7 +248,7 @@ def fit_texture(model, image: Tensor, settings: FitSettings | None = None,
         score = _full_psnr(model, G, image, fitted)
     tuned = {k: v.detach().clone() for k, v in G.generator.named_parameters()}
     return TextureFit(fitted, labels, tuned, method, step, seconds, score, side, base, plain,
-                      time.perf_counter() - start)
+                      time.perf_counter() - start, group_textons(image, labels, fitted))
 
 
 def fit_detail(model, G: nn.Module, image: Tensor, textons: Textons, side: int) -> Textons:

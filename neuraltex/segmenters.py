@@ -15,6 +15,8 @@ The segment count adapts to the image: Felzenszwalb's scale grows until at most
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import torch
 import torch.nn.functional as F
@@ -42,8 +44,10 @@ def segment_labels(image: torch.Tensor, method: str, *, model=None,
     return kmeans_labels(arr, max_segments)
 
 
-def felzenszwalb_labels(arr: np.ndarray, max_segments: int) -> np.ndarray:
-    """Felzenszwalb-Huttenlocher segments, the scale raised until <= ``max_segments``."""
+def felzenszwalb_labels(arr: np.ndarray, max_segments: int, coarser: float = 1.0) -> np.ndarray:
+    """Felzenszwalb-Huttenlocher segments, the scale raised until <= ``max_segments``; with
+    ``coarser`` > 1, then segmented again at that many times the scale (larger segments that
+    the finer ones nest in, e.g. the objects that several segments make)."""
     from skimage.segmentation import felzenszwalb
 
     area = arr.shape[0] * arr.shape[1] / 65536  # relative to 256 x 256
@@ -53,6 +57,9 @@ def felzenszwalb_labels(arr: np.ndarray, max_segments: int) -> np.ndarray:
         if labels.max() + 1 <= max_segments:
             break
         scale, min_size = scale * 1.6, round(min_size * 1.4)
+    if coarser > 1:
+        labels = felzenszwalb(arr, scale=scale * coarser, sigma=0.8,
+                              min_size=round(min_size * math.sqrt(coarser)))
     return _dense(labels)
 
 

@@ -3,15 +3,17 @@ the decoder G that :mod:`neuraltex.fit` made — tied to the base model it was t
 
 The file is safetensors (read without unpickling anything) with a JSON header:
 
-    format "neuraltex.texture", version 2 (1 still read), base_model (id of the base weights),
+    format "neuraltex.texture", version 3 (1, 2 still read), base_model (id of the base weights),
     source {file, width, height, sha256 of the file's bytes}, size [H, W] it was fitted at,
     segmenter, fit {steps, seconds, psnr, base_psnr, plain_psnr, detail}, canvas [w, h],
     sha256 (of all of it)
 
 and tensors ``textons.{mu, cov, v, f, order}`` (1, K, ...), ``labels`` (H, W) int32 and
 ``generator.<name>``: tuned minus base parameters of G in float16 (a few hundred KB for the
-tiny preset), and from version 2 ``textons.detail`` (1, K, 3, S, S) float16, the textons'
-detail sprites (:mod:`neuraltex.texton_detail`; K = 400, S = 16: 600 KB). A file whose
+tiny preset), from version 2 ``textons.detail`` (1, K, 3, S, S) float16, the textons'
+detail sprites (:mod:`neuraltex.texton_detail`; K = 400, S = 16: 600 KB), and from version 3
+``elements`` (K,) int32, the element each texton belongs to (:mod:`neuraltex.texton_elements`).
+A file whose
 content does not match its checksum, or that was tuned from other
 base weights, is refused with one line.
 """
@@ -34,8 +36,8 @@ from neuraltex.texton_detail import attach, split
 from neuraltex.textons import Textons
 
 FORMAT = "neuraltex.texture"
-VERSION = 2
-READS = (1, 2)  # versions this module reads (1: no detail sprites)
+VERSION = 3
+READS = (1, 2, 3)  # versions this module reads (1: no detail sprites, < 3: no elements)
 SUFFIX = ".ntex"
 MAX_FILE_BYTES = 64 * 2**20
 MAX_TEXTONS = 4096
@@ -54,6 +56,7 @@ class Texture:
     labels: np.ndarray             # (H, W) int64 segment (texton index) of each pixel
     generator: dict[str, Tensor]   # tuned parameters of G, by name (float32)
     header: dict                   # base_model, source, size, segmenter, fit
+    elements: np.ndarray | None = None  # (K,) int64 element of each texton (version >= 3)
 
 
 def model_id(model) -> str:
@@ -62,9 +65,11 @@ def model_id(model) -> str:
 
 
 def save_texture(path: str | os.PathLike, model, textons: Textons, labels: np.ndarray,
-                 generator: dict[str, Tensor], header: dict) -> int:
+                 generator: dict[str, Tensor], header: dict,
+                 elements: np.ndarray | None = None) -> int:
     """Write a texture file atomically; returns its size in bytes. ``header`` holds source,
-    size, segmenter and fit; format, version, base model and checksum are added here."""
+    size, segmenter and fit; format, version, base model and checksum are added here;
+    ``elements`` (K,): the element of each texton (:mod:`neuraltex.texton_elements`)."""
     from safetensors.torch import save_file
 
     from neuraltex.tuned_decoder import COLOUR
@@ -76,6 +81,8 @@ def save_texture(path: str | os.PathLike, model, textons: Textons, labels: np.nd
     if sprites is not None:
         tensors["textons.detail"] = sprites.detach().cpu().half().contiguous()
     tensors["labels"] = torch.from_numpy(np.ascontiguousarray(labels, dtype=np.int32))
+    if elements is not None:
+        tensors["elements"] = torch.from_numpy(np.ascontiguousarray(elements, dtype=np.int32))
     for name, p in generator.items():
         tensors[f"generator.{name}"] = (p.detach().cpu() - base[name].detach().cpu()).half()
     meta = {**header, "format": FORMAT, "version": VERSION, "base_model": model_id(model),
@@ -106,8 +113,9 @@ def load_texture(path: str | os.PathLike, model) -> Texture:
                                f"({header.get('base_model')!r}; this model is {mine}); "
                                "fit it again or pass the --checkpoint it was made with")
     textons = _textons(tensors, header, path, model)
-    return Texture(textons, _labels(tensors, textons.num_textons, path),
-                   _generator(tensors, model, path), header)
+    K = textons.num_textons
+    return Texture(textons, _labels(tensors, K, path), _generator(tensors, model, path), header,
+                   _elements(tensors, K, path))
 
 
 def _read(path: Path) -> tuple[dict[str, Tensor], str]:
@@ -169,6 +177,16 @@ def _labels(tensors: dict, K: int, path: Path) -> np.ndarray:
             or not 0 < max(labels.shape) <= MAX_SIDE or labels.min() < 0 or labels.max() >= K):
         raise TextureFileError(f"{path}: 'labels' must be an (H, W) int32 map of texton indices")
     return labels.numpy().astype(np.int64)
+
+
+def _elements(tensors: dict, K: int, path: Path) -> np.ndarray | None:
+    e = tensors.get("elements")
+    if e is None:
+        return None
+    if e.dtype != torch.int32 or tuple(e.shape) != (K,) or e.min() < 0 or e.max() >= K:
+        raise TextureFileError(f"{path}: 'elements' must be a (K,) int32 vector of element "
+                               "ids in [0, K)")
+    return e.numpy().astype(np.int64)
 
 
 def _generator(tensors: dict, model, path: Path) -> dict[str, Tensor]:

@@ -5,9 +5,12 @@ computed here on the same images:
 - flat: the image's mean colour;  blur: 4x box downsample + bicubic upsample;
 - kmeans8: the image quantized to 8 k-means colours;
 - plain: the fit's PSNR before the detail sprites (neuraltex.texton_detail), i.e. G alone;
-- reshuffle: patch-SWD(input, kind-aware reshuffle) vs patch-SWD(input, reconstruction) and vs
-  a random-placement reference (the same textons at uniform random positions, same decoder);
-  swd_shuf0 is the same reshuffle decoded without the sprites (G alone);
+- reshuffle: patch-SWD(input, reshuffle by elements, what ``neuraltex reshuffle`` does with a
+  texture file) vs patch-SWD(input, reconstruction) and vs a random-placement reference (the
+  same textons at uniform random positions, same decoder); swd_shuf_t is the seed's texton
+  reshuffle (features traded between textons of one kind, ``--by textons``); change is the mean
+  |reshuffle - reconstruction| per pixel and channel (a reshuffle that changes nothing would
+  score 0 and match the reconstruction's SWD);
 - init: with ``--init-compare N``, the first N images are also tuned from a randomly
   initialized model for the same seconds (does the pretrained model earn its place?).
 
@@ -38,14 +41,15 @@ from neuraltex.fit import FitSettings, fit_texture, psnr  # noqa: E402
 from neuraltex.imageio import load_image  # noqa: E402
 from neuraltex.model import DEFAULT_MODEL, build_model, load_model  # noqa: E402
 from neuraltex.reshuffle import reshuffle  # noqa: E402
-from neuraltex.texton_detail import split  # noqa: E402
+from neuraltex.texton_elements import reshuffle_elements  # noqa: E402
 from neuraltex.texton_kinds import texton_kinds  # noqa: E402
 from neuraltex.texture_file import load_texture, save_texture  # noqa: E402
 from neuraltex.tuned_decoder import tuned_model  # noqa: E402
 
 REAL = Path(__file__).resolve().parents[1] / "data" / "real_textures"
 COLS = ("flat", "blur", "kmeans8", "plain", "fit", "ssim_blur", "ssim_fit", "swd_rec",
-        "swd_shuf", "swd_shuf0", "swd_rand", "seconds", "steps", "textons", "kib", "edit_s")
+        "swd_shuf", "swd_shuf_t", "swd_rand", "change", "seconds", "steps", "textons", "kib",
+        "edit_s")
 
 
 def references(image: torch.Tensor) -> dict[str, torch.Tensor]:
@@ -91,24 +95,27 @@ def evaluate(model, image: torch.Tensor, settings: FitSettings, workdir: Path) -
     path = workdir / "t.ntex"
     header = {"source": {}, "size": list(image.shape[-2:]), "segmenter": fit.segmenter,
               "fit": {"steps": fit.steps}}
-    row["kib"] = save_texture(path, model, fit.textons, fit.labels, fit.generator, header) / 1024
+    row["kib"] = save_texture(path, model, fit.textons, fit.labels, fit.generator, header,
+                              fit.elements) / 1024
     tex = load_texture(path, model)  # what the CLI sees: fp16 deltas
     decoder, size = tuned_model(model, tex.generator), tuple(image.shape[-2:])
     plain = decoder.generator.feature_channels - 2  # [f_a, d]; detail sprites after
     with torch.no_grad():
         rec = decoder.decode(tex.textons, size)[0]
         start = time.perf_counter()
-        kinds = texton_kinds(tex.textons, channels=plain)
-        shuffled = reshuffle(tex.textons, seed=1, kinds=kinds)
+        shuffled = reshuffle_elements(tex.textons, tex.labels, tex.elements, channels=plain,
+                                      seed=1)
         shuf = decoder.decode(shuffled, size)[0]
         row["edit_s"] = time.perf_counter() - start
-        shuf0 = decoder.decode(split(shuffled, plain)[0], size)[0]  # sprites dropped
+        kinds = texton_kinds(tex.textons, channels=plain)
+        shuf_t = decoder.decode(reshuffle(tex.textons, seed=1, kinds=kinds), size)[0]
         rand = decoder.decode(random_placement(tex.textons), size)[0]
     row.update(fit=psnr(rec, image), plain=fit.plain_psnr, ssim_fit=ssim(rec, image),
-               swd_rec=swd(image, rec), swd_shuf=swd(image, shuf), swd_shuf0=swd(image, shuf0),
+               swd_rec=swd(image, rec), swd_shuf=swd(image, shuf), swd_shuf_t=swd(image, shuf_t),
                swd_rand=swd(image, rand), seconds=fit.seconds + fit.detail_seconds,
-               steps=fit.steps, textons=fit.textons.num_textons, segmenter=fit.segmenter)
-    row["_pictures"] = (rec, shuf)
+               steps=fit.steps, textons=fit.textons.num_textons, segmenter=fit.segmenter,
+               change=(shuf - rec).abs().mean().item())
+    row["_pictures"] = (rec, shuf, shuf_t)
     return row
 
 
@@ -153,9 +160,11 @@ def summary(rows: list[tuple[str, dict]]) -> list[str]:
         f"{sum(x['fit'] > x['blur'] for x in r)}/{n}",
         f"reshuffle SWD <= 1.25 x reconstruction SWD on "
         f"{sum(x['swd_shuf'] <= 1.25 * x['swd_rec'] for x in r)}/{n}; below random placement "
-        f"on {sum(x['swd_shuf'] < x['swd_rand'] for x in r)}/{n}; below the same reshuffle "
-        f"without sprites on {sum(x['swd_shuf'] < x['swd_shuf0'] for x in r)}/{n} (mean SWD "
-        f"{mean('swd_shuf'):.2f} vs {mean('swd_shuf0'):.2f})",
+        f"on {sum(x['swd_shuf'] < x['swd_rand'] for x in r)}/{n}; below the texton reshuffle on "
+        f"{sum(x['swd_shuf'] < x['swd_shuf_t'] for x in r)}/{n} (mean SWD "
+        f"{mean('swd_shuf'):.2f} vs {mean('swd_shuf_t'):.2f}; the texton reshuffle is "
+        f"<= 1.25 x reconstruction on {sum(x['swd_shuf_t'] <= 1.25 * x['swd_rec'] for x in r)}"
+        f"/{n}); mean change {mean('change'):.3f}",
         f"fit seconds mean {mean('seconds'):.1f} (max {max(x['seconds'] for x in r):.1f}); "
         f"texture file {mean('kib'):.0f} KiB (max {max(x['kib'] for x in r):.0f}); reshuffle "
         f"decode {mean('edit_s'):.2f} s",

@@ -4,7 +4,7 @@
     python scripts/real_gallery.py --seconds 10 --out /tmp/g
 
 Each texture of data/real_textures is tuned (``neuraltex fit``), then one row shows:
-input | reconstruction | 2 reshuffles (kind-aware) | transfer (this texture's structure with the
+input | reconstruction | 2 reshuffles (by elements) | transfer (this texture's structure with the
 next texture's appearance, rendered by the appearance's decoder) | interpolation with the next
 texture (t = 0.5, decoders blended) | vary (appearance 0.3). Writes ``real_gallery.png`` and
 ``real_animate.gif`` (vortex flow on the first texture).
@@ -30,9 +30,8 @@ from neuraltex.edit.vary import vary  # noqa: E402
 from neuraltex.fit import FitSettings, fit_texture  # noqa: E402
 from neuraltex.imageio import load_image, save_frames, save_pil, stack_rows  # noqa: E402
 from neuraltex.model import DEFAULT_MODEL, load_model  # noqa: E402
-from neuraltex.reshuffle import reshuffle  # noqa: E402
-from neuraltex.texton_kinds import texton_kinds  # noqa: E402
-from neuraltex.tuned_decoder import combine, tuned_model  # noqa: E402
+from neuraltex.texton_elements import reshuffle_elements  # noqa: E402
+from neuraltex.tuned_decoder import COLOUR, combine, tuned_model  # noqa: E402
 
 REAL = Path(__file__).resolve().parents[1] / "data" / "real_textures"
 DOCS = Path(__file__).resolve().parents[1] / "docs"
@@ -56,14 +55,15 @@ def main() -> None:
         print(f"{name}: {fit.segmenter}, {fit.textons.num_textons} textons, "
               f"{fit.steps} steps, PSNR {fit.base_psnr:.2f} -> {fit.plain_psnr:.2f} dB, "
               f"with detail sprites {fit.psnr:.2f} dB", flush=True)
-        fits.append((name, image, fit.textons, tuned_model(model, fit.generator)))
+        fits.append((name, image, fit.textons, tuned_model(model, fit.generator),
+                     (fit.labels, fit.elements)))
     rows = []
-    for i, (name, image, t, dec) in enumerate(fits):
-        other_name, _, u, other = fits[(i + 1) % len(fits)]
-        rows.append(strip(row(model, name, image, t, dec, other_name, u, other)))
+    for i, (name, image, t, dec, groups) in enumerate(fits):
+        other_name, _, u, other, _ = fits[(i + 1) % len(fits)]
+        rows.append(strip(row(model, name, image, t, dec, groups, other_name, u, other)))
     args.out.mkdir(parents=True, exist_ok=True)
     save_pil(stack_rows(rows), args.out / "real_gallery.png")
-    name, image, t, dec = fits[0]
+    name, image, t, dec, _ = fits[0]
     frames = animate(t, "vortex", 24, 4.0, 0, 0.5, 2 * torch.pi / 4)
     with torch.no_grad():
         pics = [dec.decode(f, tuple(image.shape[-2:]))[0] for f in frames]
@@ -72,18 +72,19 @@ def main() -> None:
 
 
 @torch.no_grad()
-def row(model, name, image, t, dec, other_name, u, other) -> list:
+def row(model, name, image, t, dec, groups, other_name, u, other) -> list:
     size = tuple(image.shape[-2:])
-    kinds = texton_kinds(t, channels=dec.generator.feature_channels - 2)
+    plain = dec.generator.feature_channels - 2  # [f_a, d]; detail sprites after
     tiles = [(name, image), ("fit reconstruction", dec.decode(t, size))]
     for seed in (1, 2):
-        tiles.append((f"reshuffle {seed}", dec.decode(reshuffle(t, seed=seed, kinds=kinds), size)))
+        shuffled = reshuffle_elements(t, *groups, channels=plain, seed=seed)
+        tiles.append((f"reshuffle {seed}", dec.decode(shuffled, size)))
     app_dec, (app, structure) = combine(model, [(u, other), (t, dec)])
     tiles.append((f"+ {other_name} look", app_dec.decode(transfer(structure, app, "mean", 0),
                                                            size)))
     mid_dec, (a, b) = combine(model, [(t, dec), (u, other)], t=0.5)
     tiles.append((f"<-> {other_name} 0.5", mid_dec.decode(interpolate(a, b, 0.5, 0), size)))
-    tiles.append(("vary 0.3", dec.decode(vary(t, 0.3, 1.0), size)))
+    tiles.append(("vary 0.3", dec.decode(vary(t, 0.3, 1.0, unit=plain - COLOUR), size)))
     return tiles
 
 

@@ -5,6 +5,7 @@ import json
 
 import numpy as np
 import pytest
+import torch
 from PIL import Image
 
 from neuraltex.cli import main
@@ -48,6 +49,32 @@ def test_every_texture_command_takes_a_texture_file(files, tmp_path, argv):
     args = [a.format(**values) for a in argv]
     assert main(args) == 0
     assert list(tmp_path.iterdir())
+
+
+def test_reshuffle_moves_whole_elements_of_a_texture_file(tmp_path):
+    """Nine discs of nine colours: reshuffled by elements, the discs trade places (the
+    picture changes, the set of disc colours does not)."""
+    from neuraltex.imageio import load_image
+
+    yy, xx = np.mgrid[0:72, 0:72]
+    pic = np.full((72, 72, 3), 128, np.uint8)
+    colours = [(230, 40, 40), (40, 230, 40), (40, 40, 230), (230, 230, 40), (230, 40, 230),
+               (40, 230, 230), (250, 250, 250), (10, 10, 10), (200, 120, 40)]
+    centres = [(12 + 24 * (i // 3), 12 + 24 * (i % 3)) for i in range(9)]
+    for (cy, cx), c in zip(centres, colours, strict=True):
+        pic[(yy - cy) ** 2 + (xx - cx) ** 2 <= 36] = c
+    Image.fromarray(pic).save(tmp_path / "discs.png")
+    ntex = tmp_path / "discs.ntex"
+    assert main(["fit", str(tmp_path / "discs.png"), "-o", str(ntex), "--steps", "30",
+                 "--segmenter", "felzenszwalb"]) == 0
+    assert main(["reconstruct", str(ntex), "-o", str(tmp_path / "rec.png")]) == 0
+    assert main(["reshuffle", str(ntex), "-o", str(tmp_path / "el.png"), "--seed", "2"]) == 0
+    rec, out = load_image(tmp_path / "rec.png"), load_image(tmp_path / "el.png")
+    at = lambda img: torch.stack([img[:, cy, cx] for cy, cx in centres])  # noqa: E731
+    assert (out - rec).abs().amax(0).gt(0.3).float().mean() > 0.05  # discs moved
+    # every disc of the reshuffle shows one of the nine colours, and not all where they were
+    near = torch.cdist(at(out), at(rec))  # (9, 9)
+    assert near.amin(1).max() < 0.25 and near.diagonal().max() > 0.5
 
 
 def test_texture_file_edit_list(files, tmp_path):

@@ -194,9 +194,11 @@ def test_auto_says_what_it_picked(model):
 def test_texture_file_round_trip(tmp_path, model, fitted):
     path = tmp_path / "t.ntex"
     size = save_texture(path, model, fitted.textons, fitted.labels, fitted.generator,
-                        {"size": [32, 32], "source": {}, "segmenter": "x", "fit": {}})
+                        {"size": [32, 32], "source": {}, "segmenter": "x", "fit": {}},
+                        fitted.elements)
     assert 0 < size < 2 * 2**20
     tex = load_texture(path, model)
+    assert tex.elements is not None and (tex.elements == fitted.elements).all()
     plain = model.generator.feature_channels + 1  # [f_a, d]; detail sprites after
     assert tex.textons.feature_dim == plain + 3 * fitted.detail ** 2
     torch.testing.assert_close(tex.textons.f[..., :plain], fitted.textons.f[..., :plain])
@@ -237,6 +239,21 @@ def test_texture_files_with_wild_sprites_are_refused(tmp_path, model, fitted):
     save_texture(path, model, replace(fitted.textons, f=f), fitted.labels, fitted.generator,
                  {"size": [32, 32], "source": {}, "segmenter": "x", "fit": {}})
     with pytest.raises(TextureFileError, match="sprites"):
+        load_texture(path, model)
+
+
+def test_fit_groups_the_textons_of_each_disc_into_elements(model, fitted):
+    K = fitted.textons.num_textons
+    assert fitted.elements.shape == (K,) and 0 < fitted.elements.max() < K  # not all one
+
+
+def test_texture_files_with_bad_elements_are_refused(tmp_path, model, fitted):
+    path = tmp_path / "e.ntex"
+    bad = fitted.elements.copy()
+    bad[0] = fitted.textons.num_textons  # no such element
+    save_texture(path, model, fitted.textons, fitted.labels, fitted.generator,
+                 {"size": [32, 32], "source": {}, "segmenter": "x", "fit": {}}, bad)
+    with pytest.raises(TextureFileError, match="elements"):
         load_texture(path, model)
 
 

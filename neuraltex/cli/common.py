@@ -77,6 +77,7 @@ class Texture:
     masks: Tensor | None = None  # (n, h, w) softmax masks when read from an image
     decoder: TextonAutoencoder | None = None  # the tuned model of a texture file
     labels: object = None  # (H, W) int64 segments of a texture file (numpy)
+    elements: object = None  # (K,) int64 element of each texton of a texture file (numpy)
 
 
 def textons_of(model: TextonAutoencoder, path: Path, lim: Limits,
@@ -92,7 +93,8 @@ def textons_of(model: TextonAutoencoder, path: Path, lim: Limits,
 
         tex = load_texture(path, model)
         return Texture(tex.textons.to(device=device), min(tex.header["size"]),
-                       decoder=tuned_model(model, tex.generator).to(device), labels=tex.labels)
+                       decoder=tuned_model(model, tex.generator).to(device), labels=tex.labels,
+                       elements=tex.elements)
     if path.suffix.lower() in TEXTON_FILES:
         from neuraltex.textons_file import load_textons
 

@@ -103,20 +103,33 @@ def cmd_transfer(args: argparse.Namespace) -> int:
 
 
 def cmd_reshuffle(args: argparse.Namespace) -> int:
-    """Texture diversification (4.4.1): appearance features permuted among effective textons
-    of the same kind (size and appearance); the background layer keeps its own."""
+    """Texture diversification (4.4.1). A texture file's elements (whole objects: coins,
+    bricks, stones) trade places with elements of their shape, and the background's textons
+    trade features (--by elements, the default for texture files); otherwise appearance
+    features are permuted among effective textons of the same kind (size and appearance),
+    the background layer keeping its own (--by textons)."""
     from neuraltex.imageio import numbered
     from neuraltex.reshuffle import reshuffle
+    from neuraltex.texton_elements import reshuffle_elements
     from neuraltex.texton_kinds import texton_kinds
 
     paths = numbered(args.output, args.count)
     model = _load(args)
     tex = _texture(args, model, args.image)
     decoder, (textons,) = common.decoder_for(model, tex)
-    kinds = texton_kinds(textons, channels=decoder.generator.feature_channels - 2)
+    plain = decoder.generator.feature_channels - 2  # [f_a, d]; detail sprites after
+    kinds = texton_kinds(textons, channels=plain)
+    by_elements = args.by == "elements" and tex.elements is not None
+    if args.by == "elements" and tex.elements is None and tex.labels is not None:
+        print(f"{args.image}: a texture file from an older neuraltex has no elements; "
+              "reshuffling textons (fit it again to move whole elements)")
     for i, path in enumerate(paths):
         seed = None if args.seed is None else args.seed + i
-        out = reshuffle(textons, seed=seed, kinds=kinds)
+        if by_elements:
+            out = reshuffle_elements(textons, tex.labels, tex.elements, channels=plain,
+                                     seed=seed)
+        else:
+            out = reshuffle(textons, seed=seed, kinds=kinds)
         common.save(_decode(args, decoder, out, tex.short), path)
     return 0
 
@@ -171,7 +184,8 @@ def cmd_vary(args: argparse.Namespace) -> int:
     check_output_path(args.output)
     model = _load(args)
     tex = _texture(args, model, args.image)
-    out = vary(tex.textons, args.appearance, args.shape)
+    out = vary(tex.textons, args.appearance, args.shape,
+               unit=model.generator.feature_channels - 2)  # f_a: C_a unit channels
     common.save(_decode(args, tex.decoder or model, out, tex.short), args.output)
     return 0
 
@@ -299,6 +313,10 @@ def add_commands(sub) -> None:
             f"{img}; with --count > 1 a pattern such as out_{{i}}.png")
     p.add_argument("--count", type=types.integer(1, MAX_COUNT), default=1,
                    help=f"number of variations, at most {MAX_COUNT} (default 1)")
+    p.add_argument("--by", choices=("elements", "textons"), default="elements",
+                   help="elements: whole objects of a texture file trade places (default; "
+                   "images and texton files have no elements and use textons); textons: "
+                   "appearance features trade places between textons of one kind")
 
     p = cmd(sub, "interpolate", cmd_interpolate, "blend two textures", "image",
             f"{img}; with --frames {FRAMES_OUT}")

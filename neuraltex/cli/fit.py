@@ -49,7 +49,8 @@ def cmd_fit(args: argparse.Namespace) -> int:
               "fit": {"steps": fit.steps, "seconds": round(fit.seconds, 2),
                       "psnr": round(fit.psnr, 3), "base_psnr": round(fit.base_psnr, 3),
                       "plain_psnr": round(fit.plain_psnr, 3), "detail": fit.detail}}
-    size = save_texture(args.output, model, fit.textons, fit.labels, fit.generator, header)
+    size = save_texture(args.output, model, fit.textons, fit.labels, fit.generator, header,
+                        fit.elements)
     print(f"{fit.segmenter} segments -> {fit.textons.num_textons} textons; tuned "
           f"{fit.steps} steps in {fit.seconds:.1f} s: PSNR {fit.base_psnr:.2f} -> "
           f"{fit.plain_psnr:.2f} dB" + (f"; {fit.detail} px detail sprites "

@@ -1,0 +1,158 @@
+"""Elements: the textons that together make one object of a texture (a coin, a brick, a stone).
+
+The segments that give a sharp fit (:mod:`neuraltex.segmenters`, up to 400 per image) cut an
+object into several textons, and trading appearance features between such fragments (seed
+003, 4.4.1) mixes pieces of different objects: half a coin on another coin's rim. So a fit
+also groups its textons into *elements* — Felzenszwalb segments of the image at ``COARSER``
+times the scale of the fit's segments, every texton joining the element that holds most of
+its pixels — and a reshuffle can move whole elements instead: element e takes the place of
+element pi(e), pi a random permutation within a *shape class* (area within a factor
+``SIZE_RATIO``, elongation within a factor 2, for elongated elements the long axis within 45
+degrees), and all its textons move by the offset between the two elements' centroids, their
+features and detail sprites with them. What a decoder sees is then a translated copy of
+what it was tuned on.
+
+Elements cut by the canvas border trade places only with elements cut by the same sides (moved
+inside they would show their cut edge). Background elements (at least BACKGROUND_SHARE of the
+canvas: grout, a backdrop, the bark between cracks) stay, and their textons trade features
+within their kinds, as in the seed's reshuffle.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+
+import numpy as np
+import torch
+from torch import Tensor
+
+from neuraltex.texton_kinds import BACKGROUND_SHARE
+from neuraltex.textons import Textons
+
+COARSER = 4.0       # elements: Felzenszwalb at this many times the fit's scale
+CONCENTRIC = 0.5    # Mahalanobis distance within which a smaller texton is concentric
+SIZE_RATIO = 1.5     # largest area ratio of two elements that trade places
+ELONGATED = 1.5      # sqrt(l1 / l2) above which an element has a direction
+
+
+def group_textons(image: Tensor, labels: np.ndarray, textons: Textons | None = None,
+                  coarser: float = COARSER) -> np.ndarray:
+    """Element of each texton: image (3, H, W) in [0, 1], labels (H, W) texton of each pixel
+    -> (K,) int64 element ids 0..E-1. With the ``textons`` (batch size 1), concentric textons
+    also join one element: the rim around a coin or the halo around a dot is a segment of
+    its own at any scale, but its Gaussian sits on the centre of the one it surrounds."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    from neuraltex.segmenters import MAX_SEGMENTS, felzenszwalb_labels
+
+    K = int(labels.max()) + 1
+    arr = (image.detach().cpu().permute(1, 2, 0).clamp(0, 1).numpy() * 255).astype(np.uint8)
+    coarse = felzenszwalb_labels(arr, MAX_SEGMENTS, coarser=coarser)
+    joint = np.zeros((K, int(coarse.max()) + 1), np.int64)
+    np.add.at(joint, (labels.ravel(), coarse.ravel()), 1)
+    src, dst = np.arange(K), K + joint.argmax(1)                 # texton -- its segment
+    if textons is not None:
+        i, j = _concentric(textons)
+        src, dst = np.concatenate([src, i]), np.concatenate([dst, j])
+    n = K + joint.shape[1]
+    graph = coo_matrix((np.ones(len(src)), (src, dst)), shape=(n, n))
+    _, component = connected_components(graph, directed=False)
+    return np.unique(component[:K], return_inverse=True)[1].ravel().astype(np.int64)
+
+
+def _concentric(textons: Textons) -> tuple[np.ndarray, np.ndarray]:
+    """Pairs (i, j) of textons whose centres lie within Mahalanobis distance CONCENTRIC of
+    each other in both Gaussians' metrics (j the larger, not the background)."""
+    from neuraltex.texton_kinds import texton_area
+
+    mu, cov = textons.mu[0].detach().cpu().double(), textons.cov[0].detach().cpu().double()
+    area = texton_area(textons)[0].detach().cpu().double()
+    canvas = textons.canvas[0] * textons.canvas[1]
+    d = mu[:, None] - mu[None]                                   # (K, K, 2): mu_i - mu_j
+    m2 = (d.unsqueeze(-2) @ torch.linalg.inv(cov)[None] @ d.unsqueeze(-1))[..., 0, 0]  # in j's
+    ok = ((torch.maximum(m2, m2.T) < CONCENTRIC ** 2) & (area[None] > area[:, None])
+          & (area < BACKGROUND_SHARE * canvas)[None])
+    i, j = np.nonzero(ok.numpy())
+    return i, j
+
+
+@dataclass
+class ElementShapes:
+    area: np.ndarray        # (E,) pixels
+    centre: np.ndarray      # (E, 2) x, y in pixels
+    elongation: np.ndarray  # (E,) sqrt of the ratio of the pixel covariance's eigenvalues
+    angle: np.ndarray       # (E,) direction of the long axis, [0, pi)
+    sides: np.ndarray       # (E,) int64 bit mask of the canvas sides it touches (1 2 4 8: l r t b)
+    background: np.ndarray  # (E,) bool: covers at least BACKGROUND_SHARE of the canvas
+
+
+def element_shapes(labels: np.ndarray, groups: np.ndarray,
+                   background: float = BACKGROUND_SHARE) -> ElementShapes:
+    """Shape of each element from the pixels of its textons (labels (H, W), groups (K,))."""
+    H, W = labels.shape
+    el = groups[labels].ravel()
+    E = int(groups.max()) + 1
+    ys, xs = np.divmod(np.arange(H * W), W)
+    area = np.bincount(el, minlength=E).astype(float)
+    n = np.maximum(area, 1)
+    mx, my = np.bincount(el, xs, E) / n, np.bincount(el, ys, E) / n
+    dx, dy = xs - mx[el], ys - my[el]
+    cxx, cyy, cxy = (np.bincount(el, w, E) / n for w in (dx * dx, dy * dy, dx * dy))
+    half = np.sqrt(((cxx - cyy) / 2) ** 2 + cxy ** 2)
+    l1, l2 = (cxx + cyy) / 2 + half, (cxx + cyy) / 2 - half
+    elongation = np.sqrt((l1 + 1 / 12) / (np.maximum(l2, 0) + 1 / 12))
+    angle = (0.5 * np.arctan2(2 * cxy, cxx - cyy)) % math.pi
+    sides = np.zeros(E, np.int64)
+    for bit, line in enumerate((labels[:, 0], labels[:, -1], labels[0], labels[-1])):
+        sides[np.unique(groups[line])] |= 1 << bit
+    background = area >= background * H * W
+    return ElementShapes(area, np.stack([mx, my], 1), elongation, angle, sides, background)
+
+
+def shape_classes(shapes: ElementShapes, size_ratio: float = SIZE_RATIO) -> np.ndarray:
+    """(E,) int64 class of each element (-1: the background stays); elements of one class
+    trade places: alike in area, elongation, direction and the canvas sides that cut them."""
+    a = np.floor(np.log(np.maximum(shapes.area, 1)) / math.log(size_ratio))
+    e = np.floor(np.log(shapes.elongation) / math.log(2))
+    d = np.where(shapes.elongation > ELONGATED, np.floor(shapes.angle / (math.pi / 4)) % 4, -1)
+    _, classes = np.unique(np.stack([a, e, d, shapes.sides], 1), axis=0, return_inverse=True)
+    return np.where(shapes.background, -1, classes.ravel()).astype(np.int64)
+
+
+def move_elements(textons: Textons, labels: np.ndarray, groups: np.ndarray, *,
+                  seed: int | None = None, size_ratio: float = SIZE_RATIO) -> Textons:
+    """Each element takes the place of another of its shape class; its textons (batch size
+    1) move with all their features. Deterministic per seed."""
+    shapes = element_shapes(labels, groups)
+    classes = shape_classes(shapes, size_ratio)
+    rng = np.random.default_rng(seed)
+    target = np.arange(len(classes))
+    for c in np.unique(classes[classes >= 0]):
+        idx = np.nonzero(classes == c)[0]
+        target[idx] = idx[rng.permutation(len(idx))]
+    shift = (shapes.centre[target] - shapes.centre)[groups] / min(labels.shape)  # (K, 2)
+    return replace(textons, mu=textons.mu + torch.from_numpy(shift).to(textons.mu)[None])
+
+
+def reshuffle_elements(textons: Textons, labels: np.ndarray, groups: np.ndarray, *,
+                       channels: int | None = None, seed: int | None = None,
+                       size_ratio: float = SIZE_RATIO) -> Textons:
+    """Reshuffle a fitted texture (batch size 1) by elements: objects trade places
+    (:func:`move_elements`), and the textons of the background elements (grout, ground,
+    bark: stuff rather than objects) trade features with textons of their kind
+    (:func:`neuraltex.texton_kinds.texton_kinds` on the first ``channels`` of f, area within
+    the same ``size_ratio``), as in the seed's reshuffle. The ground is drawn behind the
+    objects."""
+    from neuraltex.reshuffle import reshuffle
+    from neuraltex.texton_kinds import texton_kinds
+
+    shapes = element_shapes(labels, groups)
+    stuff = torch.from_numpy(shapes.background[groups]).to(textons.device)[None]  # (1, K)
+    kinds = texton_kinds(textons, channels=channels, size_ratio=size_ratio).to(textons.device)
+    moved = move_elements(textons, labels, groups, seed=seed, size_ratio=size_ratio)
+    # a moved object lands on ground it did not cover before: draw the ground behind it
+    key = (~stuff).long() * textons.num_textons + textons.order
+    order = torch.argsort(torch.argsort(key, dim=1), dim=1)
+    return reshuffle(replace(moved, order=order), seed=seed, kinds=torch.where(stuff, kinds, -1))
