@@ -37,6 +37,14 @@ def lower_triangular_power(W: Tensor, lam: float) -> Tensor:
     return torch.stack([torch.stack([al, zero], -1), torch.stack([c * s, dl], -1)], -2)
 
 
+def on_unit_sphere(f: Tensor, unit: int) -> Tensor:
+    """f (..., C) with its first ``unit`` channels, the appearance features f_a (unit vectors,
+    eq. 4.6), normalized again after a blend of features shrank them (0: f unchanged)."""
+    if not unit:
+        return f
+    return torch.cat([F.normalize(f[..., :unit], dim=-1, eps=1e-12), f[..., unit:]], dim=-1)
+
+
 def vary(textons: Textons, appearance: float = 1.0, shape: float = 1.0,
          unit: int = 0) -> Textons:
     """Scale the variation of appearance features (lambda_f) and shapes (lambda_U). The first
@@ -45,9 +53,7 @@ def vary(textons: Textons, appearance: float = 1.0, shape: float = 1.0,
     decoder's textons, 0 to keep eq. 4.27 as it is."""
     t = textons
     f_bar = effective_mean(t.f, t.delta)
-    f = f_bar + appearance * (t.f - f_bar)  # eq. 4.27
-    if unit:
-        f = torch.cat([F.normalize(f[..., :unit], dim=-1, eps=1e-12), f[..., unit:]], dim=-1)
+    f = on_unit_sphere(f_bar + appearance * (t.f - f_bar), unit)  # eq. 4.27
     cov = t.cov
     if shape != 1.0:
         U_bar = effective_mean(t.cov, t.delta)  # (B, 1, 2, 2)
