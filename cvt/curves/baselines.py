@@ -16,6 +16,7 @@ from dataclasses import replace
 import torch
 
 from cvt.curves.cleanup import join_ends, prune
+from cvt.curves.fairing import fair_like
 from cvt.curves.graph import CurveGraph
 from cvt.curves.init import box_inside, patch_init
 from cvt.curves.sampling import exemplar_graph
@@ -36,11 +37,13 @@ def run_curves(method: str, cx: CurveExemplar, size: tuple[float, float], cfg: C
         gen = torch.Generator().manual_seed(cfg.seed)
         out = patch_init(inp, cx.box, box, 2 * cfg.level(cx.exemplar.size, 0).radius,
                          box_inside(box, inside), gen)
-        return prune(out, inp, cx.box, box, lv.delta), lv.delta
+        out = prune(out, inp, cx.box, box, lv.delta)
+        return fair_like(out, inp, cx.box, box, lv.delta), lv.delta
     if method == "no-connectivity":
         cfg = replace(cfg, w_edge=0.0, connectivity=False)
     elif method != "ours":
         raise ValueError(f"method must be one of {METHODS}")
     res = synthesize_curves(cx, size, cfg, inside)
     g = join_ends(res.graph, res.inputs[-1], cx.box, box, res.delta)
-    return prune(g, res.inputs[-1], cx.box, box, res.delta), res.delta
+    g = prune(g, res.inputs[-1], cx.box, box, res.delta)
+    return fair_like(g, res.inputs[-1], cx.box, box, res.delta), res.delta
