@@ -92,7 +92,7 @@ def excess_ends(out: CurveGraph, exemplar: CurveGraph, in_box, out_box, delta: f
 
 
 def join_ends(out: CurveGraph, exemplar: CurveGraph, in_box, out_box, delta: float,
-              reach: float = 6.0, facing: float = 0.3) -> CurveGraph:
+              reach: float = 4.0, facing: float = 0.3) -> CurveGraph:
     """While the output has more interior stroke ends than the exemplar's density, join pairs
     of facing ends (each end's outward direction points at the other within acos(``facing``),
     closer than ``reach`` deltas, both inside), nearest pairs first: breaks the exemplar does
@@ -137,7 +137,7 @@ def _near_along(nbr: list[list[int]], v: int, hops: int) -> set[int]:
 
 
 def join_to_strokes(out: CurveGraph, exemplar: CurveGraph, in_box, out_box, delta: float,
-                    reach: float = 5.0, facing: float = 0.3) -> CurveGraph:
+                    reach: float = 4.0, facing: float = 0.3) -> CurveGraph:
     """Where the exemplar has junctions, ends still beyond its end density run on into the
     nearest stroke ahead (a T-junction, closer than ``reach`` deltas, within acos(``facing``)
     of the end's outward direction)."""
