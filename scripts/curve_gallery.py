@@ -4,6 +4,7 @@ examples (drawing | drawing + prediction).
 
     python scripts/curve_gallery.py [--out docs/curves_gallery.png]
         [--autocomplete docs/curves_autocomplete.png] [NAME ...]
+    python scripts/curve_gallery.py --real --out docs/curves_gallery_real.png   # data/real_curves
 """
 
 from __future__ import annotations
@@ -22,6 +23,7 @@ from cvt.svg import parse_svg
 from neuraltex.imageio import save_pil, stack_rows
 
 EXEMPLARS = Path(__file__).resolve().parents[1] / "cvt" / "exemplars" / "curves"
+REAL = Path(__file__).resolve().parents[1] / "data" / "real_curves"
 NS = 'xmlns="http://www.w3.org/2000/svg"'
 DRAWINGS = {  # a user's first strokes, in the exemplar's own style
     "waves": '<path d="M0 60 C 40 50, 70 70, 110 58" fill="none" stroke="#1d3557" '
@@ -51,10 +53,11 @@ def labelled(pics: list[Image.Image], labels: list[str], gap: int = 12) -> Image
     return row
 
 
-def gallery_row(name: str, cfg: CurveConfig, scale: float, height: int) -> Image.Image:
-    cx = load_curves(EXEMPLARS / f"{name}.svg")
+def gallery_row(path: Path, cfg: CurveConfig, scale: float, height: int) -> Image.Image:
+    name = path.stem
+    cx = load_curves(path)
     size = (scale * cx.exemplar.viewbox[2], scale * cx.exemplar.viewbox[3])
-    pics = [render((EXEMPLARS / f"{name}.svg").read_text(), round(height / scale))]
+    pics = [render(path.read_text(), round(height / scale))]
     for method in ("no-connectivity", "ours"):
         g, _ = run_curves(method, cx, size, cfg)
         pics.append(render(curves_svg(cx.exemplar, cx.element_centers(), g, size), height))
@@ -78,9 +81,13 @@ def main() -> None:
     ap.add_argument("--autocomplete", default="docs/curves_autocomplete.png")
     ap.add_argument("--scale", type=float, default=1.5)
     ap.add_argument("--height", type=int, default=240, help="height of each synthesis")
+    ap.add_argument("--real", action="store_true",
+                    help="the real stroke art of data/real_curves (no autocomplete sheet)")
     args = ap.parse_args()
-    names = args.names or sorted(p.stem for p in EXEMPLARS.glob("*.svg"))
-    rows = [gallery_row(n, CurveConfig(), args.scale, args.height) for n in names]
+    folder = REAL if args.real else EXEMPLARS
+    names = args.names or sorted(p.stem for p in folder.glob("*.svg"))
+    rows = [gallery_row(folder / f"{n}.svg", CurveConfig(), args.scale, args.height)
+            for n in names]
     half = (len(rows) + 1) // 2
     left, right = stack_rows(rows[:half], gap=8), stack_rows(rows[half:], gap=8)
     sheet = Image.new("RGB", (left.width + right.width + 20, left.height), "white")
@@ -88,6 +95,8 @@ def main() -> None:
     sheet.paste(right, (left.width + 20, 0))
     save_pil(sheet, args.out)
     print(f"wrote {args.out}")
+    if args.real:
+        return
     ac = [autocomplete_row(n, CurveConfig(levels=2), args.height) for n in DRAWINGS]
     save_pil(stack_rows(ac, gap=8), args.autocomplete)
     print(f"wrote {args.autocomplete}")

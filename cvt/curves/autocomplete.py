@@ -14,7 +14,8 @@ from dataclasses import dataclass, replace
 
 import torch
 
-from cvt.curves.cleanup import join_ends, prune
+from cvt.curves.cleanup import prune, repair_ends
+from cvt.curves.fairing import fair_like
 from cvt.curves.graph import CurveGraph
 from cvt.curves.init import box_inside
 from cvt.curves.sampling import stroke_graph
@@ -79,6 +80,7 @@ def autocomplete(cx: CurveExemplar, partial: CurveExemplar, box, config: CurveCo
     delta = cfg.level(cx.exemplar.size, cfg.levels - 1).delta
     fixed = len(drawn(delta))
     res = run_boxed(cx, box, cfg, None, drawn)
-    g = join_ends(res.graph, res.inputs[-1], cx.box, box, delta)
+    g = repair_ends(res.graph, res.inputs[-1], cx.box, box, delta, keep=fixed)
     g = prune(g, res.inputs[-1], cx.box, box, delta, keep=fixed)
+    g = fair_like(g, res.inputs[-1], cx.box, box, delta, keep=fixed)  # the user's stay put
     return Completion(g, fixed, box, res.seconds)

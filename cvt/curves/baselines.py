@@ -6,7 +6,8 @@
 * ``random``: random exemplar pieces (patches of side 2r with their edges) on a grid, i.e. the
   initialization alone.
 
-All three get the same clean-up (cvt.curves.cleanup) and reconstruction.
+All three get the same clean-up (``finish``: cvt.curves.cleanup, cvt.curves.fairing) and
+reconstruction.
 """
 
 from __future__ import annotations
@@ -15,12 +16,13 @@ from dataclasses import replace
 
 import torch
 
-from cvt.curves.cleanup import join_ends, prune
+from cvt.curves.cleanup import prune, repair_ends
+from cvt.curves.fairing import fair_like
 from cvt.curves.graph import CurveGraph
 from cvt.curves.init import box_inside, patch_init
 from cvt.curves.sampling import exemplar_graph
 from cvt.curves.strokes import CurveExemplar
-from cvt.curves.synthesis import CurveConfig, Inside, synthesize_curves
+from cvt.curves.synthesis import CurveConfig, Inside, synthesize_curves, upsample
 
 METHODS = ("ours", "no-connectivity", "random")
 
@@ -36,11 +38,19 @@ def run_curves(method: str, cx: CurveExemplar, size: tuple[float, float], cfg: C
         gen = torch.Generator().manual_seed(cfg.seed)
         out = patch_init(inp, cx.box, box, 2 * cfg.level(cx.exemplar.size, 0).radius,
                          box_inside(box, inside), gen)
-        return prune(out, inp, cx.box, box, lv.delta), lv.delta
+        return finish(out, inp, cx.box, box, lv.delta), lv.delta
     if method == "no-connectivity":
         cfg = replace(cfg, w_edge=0.0, connectivity=False)
     elif method != "ours":
         raise ValueError(f"method must be one of {METHODS}")
     res = synthesize_curves(cx, size, cfg, inside)
-    g = join_ends(res.graph, res.inputs[-1], cx.box, box, res.delta)
-    return prune(g, res.inputs[-1], cx.box, box, res.delta), res.delta
+    return finish(res.graph, res.inputs[-1], cx.box, box, res.delta), res.delta
+
+
+def finish(out: CurveGraph, inp: CurveGraph, in_box, out_box, delta: float) -> CurveGraph:
+    """The clean-up every method gets: the output redrawn as its SVG will read (its paths
+    re-sampled at ``delta``, crossings and touching ends joined, like the exemplar), stroke
+    spurs / specks pruned and stroke ends repaired to the exemplar's, strokes faired."""
+    g = prune(upsample(out, delta), inp, in_box, out_box, delta)
+    g = repair_ends(g, inp, in_box, out_box, delta)
+    return fair_like(g, inp, in_box, out_box, delta)

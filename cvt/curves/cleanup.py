@@ -1,12 +1,16 @@
-"""Final clean-up of a synthesized graph: no stubs or specks the exemplar does not have.
+"""Final clean-up of a synthesized graph: no stubs, specks or stroke ends the exemplar does
+not have.
 
-Where the exemplar's strokes do not end inside it, facing ends closer than a few deltas are
-joined. A spur is a chain from an end (degree 1) to a junction (degree >= 3); a speck is a
+A spur is a chain from an end (degree 1) to a junction (degree >= 3); a speck is a
 connected component away from the border. Output spurs shorter (in edges) than the
 exemplar's shortest spur, and output specks smaller (in samples) than the exemplar's smallest
 one (at least 3), are removed: optimization left-overs that would show as dangling stubs and
 dots. Components that touch the border are left alone (the border cuts them, in the exemplar
 too), and so do ends within 2 deltas of it.
+
+Stroke ends are then brought to the exemplar's end density (ends per interior sample): while
+the output has more, facing ends are joined (nearest pairs first), ends run on into the stroke
+ahead where the exemplar has junctions, and short broken-off fragments go (``repair_ends``).
 """
 
 from __future__ import annotations
@@ -80,23 +84,33 @@ def end_rate(g: CurveGraph, box, margin: float) -> float:
     return float((g.degree().numpy()[inner] == 1).sum()) / max(int(inner.sum()), 1)
 
 
+def excess_ends(out: CurveGraph, exemplar: CurveGraph, in_box, out_box, delta: float) -> int:
+    """Interior stroke ends of ``out`` beyond the exemplar's end density (may be < 0)."""
+    inner = int((_interior(out, out_box, 2 * delta) & (out.kind.numpy() < 0)).sum())
+    ex_rate = end_rate(exemplar, in_box, 2 * delta)
+    return int(np.floor((end_rate(out, out_box, 2 * delta) - ex_rate) * inner))
+
+
 def join_ends(out: CurveGraph, exemplar: CurveGraph, in_box, out_box, delta: float,
-              reach: float = 3.0, facing: float = 0.5, rare: float = 0.01) -> CurveGraph:
-    """For exemplars whose strokes (almost) never end inside (end rate below ``rare``), join
-    pairs of facing stroke ends (each end's outward direction points at the other, closer than
-    ``reach`` deltas), nearest pairs first: breaks the exemplar does not have."""
+              reach: float = 4.0, facing: float = 0.3) -> CurveGraph:
+    """While the output has more interior stroke ends than the exemplar's density, join pairs
+    of facing ends (each end's outward direction points at the other within acos(``facing``),
+    closer than ``reach`` deltas, both inside), nearest pairs first: breaks the exemplar does
+    not have."""
     from scipy.spatial import cKDTree
 
     deg = out.degree().numpy()
-    ends = np.flatnonzero((deg == 1) & (out.kind.numpy() < 0))
-    ex_rate = end_rate(exemplar, in_box, 2 * delta)
-    excess = round((end_rate(out, out_box, 2 * delta) - ex_rate) * len(out) / 2)
-    if len(ends) < 2 or excess <= 0 or ex_rate >= rare:
-        return out
+    inner = _interior(out, out_box, 2 * delta)
+    ends = np.flatnonzero((deg == 1) & (out.kind.numpy() < 0) & inner)
+    budget = excess_ends(out, exemplar, in_box, out_box, delta) // 2
+    if len(ends) < 2 or budget <= 0:
+        return join_to_strokes(out, exemplar, in_box, out_box, delta)
     pos, nbr = out.pos.numpy(), out.adjacency()
     away = pos[ends] - pos[[nbr[v][0] for v in ends]]
     away /= np.linalg.norm(away, axis=1, keepdims=True).clip(1e-12)
     pairs = cKDTree(pos[ends]).query_pairs(reach * delta, output_type="ndarray")
+    if len(pairs) == 0:
+        return out
     d = pos[ends[pairs[:, 1]]] - pos[ends[pairs[:, 0]]]
     dist = np.linalg.norm(d, axis=1).clip(1e-12)
     ok = ((away[pairs[:, 0]] * d).sum(1) / dist > facing) & \
@@ -104,10 +118,80 @@ def join_ends(out: CurveGraph, exemplar: CurveGraph, in_box, out_box, delta: flo
     used, new = set(), []
     for k in np.flatnonzero(ok)[np.argsort(dist[ok])]:
         a, b = ends[pairs[k, 0]], ends[pairs[k, 1]]
-        if a in used or b in used or len(new) >= excess:
+        if a in used or b in used or len(new) >= budget:
             continue
         used.update((a, b))
         new.append((a, b))
+    if new:
+        out = out.with_edges(torch.cat([out.edges, torch.tensor(new, dtype=torch.long)]))
+    return join_to_strokes(out, exemplar, in_box, out_box, delta)
+
+
+def _near_along(nbr: list[list[int]], v: int, hops: int) -> set[int]:
+    """Samples at most ``hops`` edges from ``v``."""
+    seen, front = {v}, [v]
+    for _ in range(hops):
+        front = [w for u in front for w in nbr[u] if w not in seen]
+        seen.update(front)
+    return seen
+
+
+def join_to_strokes(out: CurveGraph, exemplar: CurveGraph, in_box, out_box, delta: float,
+                    reach: float = 4.0, facing: float = 0.3) -> CurveGraph:
+    """Where the exemplar has junctions, ends still beyond its end density run on into the
+    nearest stroke ahead (a T-junction, closer than ``reach`` deltas, within acos(``facing``)
+    of the end's outward direction)."""
+    from scipy.spatial import cKDTree
+
+    budget = excess_ends(out, exemplar, in_box, out_box, delta)
+    inner = _interior(exemplar, in_box, 2 * delta)
+    if budget <= 0 or not (exemplar.degree().numpy()[inner] >= 3).any():
+        return out
+    deg, pos, nbr = out.degree().numpy(), out.pos.numpy(), out.adjacency()
+    curve = out.kind.numpy() < 0
+    ends = np.flatnonzero((deg == 1) & curve & _interior(out, out_box, 2 * delta))
+    tree, new = cKDTree(pos), []
+    for v in ends[:budget]:
+        own = _near_along(nbr, v, 4)
+        away = pos[v] - pos[nbr[v][0]]
+        away /= max(np.linalg.norm(away), 1e-12)
+        best, best_d = None, np.inf
+        for c in tree.query_ball_point(pos[v], reach * delta):
+            d = pos[c] - pos[v]
+            dist = max(np.linalg.norm(d), 1e-12)
+            if c not in own and curve[c] and d @ away / dist > facing and dist < best_d:
+                best, best_d = c, dist
+        if best is not None:
+            new.append((v, best))
     if not new:
         return out
     return out.with_edges(torch.cat([out.edges, torch.tensor(new, dtype=torch.long)]))
+
+
+def drop_fragments(out: CurveGraph, exemplar: CurveGraph, in_box, out_box, delta: float,
+                   longest: int = 8, keep: int = 0) -> CurveGraph:
+    """While the output still has more interior ends than the exemplar's density, remove its
+    open fragments (simple paths, both ends inside) of fewer than ``longest`` samples,
+    shortest first: broken-off stroke pieces. The first ``keep`` samples always stay."""
+    budget = excess_ends(out, exemplar, in_box, out_box, delta)
+    if budget < 2:
+        return out
+    deg = out.degree().numpy()
+    _, lab = components(len(out), out.edges.numpy())
+    rim = ~_interior(out, out_box, 2 * delta) | (deg >= 3) | (out.kind.numpy() >= 0)
+    rim[:keep] = True
+    bad = np.bincount(lab, weights=rim.astype(float)) > 0
+    size = np.bincount(lab)
+    cand = [c for c in np.argsort(size, kind="stable") if not bad[c] and 2 <= size[c] < longest]
+    drop = np.zeros(len(out), dtype=bool)
+    for c in cand[: budget // 2]:
+        drop |= lab == c
+    return out.select(torch.from_numpy(np.flatnonzero(~drop))) if drop.any() else out
+
+
+def repair_ends(out: CurveGraph, exemplar: CurveGraph, in_box, out_box, delta: float,
+                keep: int = 0) -> CurveGraph:
+    """Stroke ends beyond the exemplar's end density: joined where two face each other, else
+    their short broken-off fragments removed."""
+    out = join_ends(out, exemplar, in_box, out_box, delta)
+    return drop_fragments(out, exemplar, in_box, out_box, delta, keep=keep)

@@ -8,7 +8,10 @@ inside the box count (path ends cut by the box border are not pattern ends).
 * end and junction densities, per 100 counted samples, compared by relative error with a floor
   of 1 per 100 (patterns without ends would otherwise divide by zero);
 * loops: cycle rank (edges - samples + components) per 100 samples;
-* curvature: turning angle / edge length at degree-2 samples, times delta, histogram (TV);
+* curvature: turning angle / edge length at degree-2 samples, times delta, histogram (TV)
+  with linear (soft) binning: a value splits between the two nearest bin centres, so a
+  pattern whose curvature sits on a bin edge (lace rings: 0.505 against the edge 0.5) is not
+  judged by which side of the edge a 1 % change lands on;
 * segment lengths: paths between ends and junctions, in deltas, histogram (TV).
 """
 
@@ -21,7 +24,7 @@ import torch
 
 from cvt.curves.graph import CurveGraph, components
 
-CURV_BINS = np.r_[np.linspace(0, 1.2, 13), np.inf]
+CURV_CENTERS = np.linspace(0.05, 1.25, 13)  # bins 0.1 wide; the last collects >= 1.2
 SEG_BINS = np.r_[0, 2, 4, 8, 16, 32, 64, np.inf]
 FLOOR = 1.0  # per 100 samples
 
@@ -32,13 +35,23 @@ class GraphStats:
     ends: float  # per 100 samples
     junctions: float
     loops: float
-    curvature: np.ndarray  # (13,) histogram shares
+    curvature: np.ndarray  # (13,) soft histogram shares
     segments: np.ndarray  # (7,) histogram shares
     samples: int
 
 
 def _hist(x: np.ndarray, bins: np.ndarray) -> np.ndarray:
     h = np.histogram(x, bins)[0].astype(float)
+    return h / max(h.sum(), 1)
+
+
+def soft_hist(x: np.ndarray, centers: np.ndarray) -> np.ndarray:
+    """Histogram with linear binning over evenly spaced ``centers``. Shape: (M,) -> (B,)."""
+    step = centers[1] - centers[0]
+    t = (np.clip(x, centers[0], centers[-1]) - centers[0]) / step
+    lo = np.minimum(np.floor(t).astype(int), len(centers) - 2)
+    w = t - lo
+    h = np.bincount(lo, 1 - w, len(centers)) + np.bincount(lo + 1, w, len(centers))
     return h / max(h.sum(), 1)
 
 
@@ -73,15 +86,26 @@ def _segments(g: CurveGraph, delta: float) -> np.ndarray:
     return np.array(lens)
 
 
+def counted_samples(g: CurveGraph, box, delta: float, margin: float = 2.0) -> np.ndarray:
+    """Curve samples with edges at least ``margin`` deltas inside ``box``. Shape: -> (N,)."""
+    pos, deg = g.pos.numpy(), g.degree().numpy()
+    x0, y0, x1, y1 = box
+    m = margin * delta
+    return ((pos[:, 0] > x0 + m) & (pos[:, 0] < x1 - m) & (pos[:, 1] > y0 + m)
+            & (pos[:, 1] < y1 - m) & (deg > 0) & (g.kind.numpy() < 0))
+
+
+def curvature_hist(g: CurveGraph, box, delta: float) -> np.ndarray:
+    """The curvature statistic alone (soft histogram). Shape: -> (13,)."""
+    return soft_hist(_turning(g, counted_samples(g, box, delta), delta), CURV_CENTERS)
+
+
 def graph_stats(g: CurveGraph, box, delta: float, margin: float = 2.0) -> GraphStats:
     """Statistics of the curve samples of ``g`` inside ``box`` (x0, y0, x1, y1)."""
     curve = np.nonzero(g.kind.numpy() < 0)[0]
     g = g.select(torch.from_numpy(curve))
-    pos, deg = g.pos.numpy(), g.degree().numpy()
-    x0, y0, x1, y1 = box
-    m = margin * delta
-    counted = ((pos[:, 0] > x0 + m) & (pos[:, 0] < x1 - m) & (pos[:, 1] > y0 + m)
-               & (pos[:, 1] < y1 - m) & (deg > 0))
+    deg = g.degree().numpy()
+    counted = counted_samples(g, box, delta, margin)
     n = max(int(counted.sum()), 1)
     d = np.clip(deg[counted], 1, 4)
     n_comp = components(len(g), g.edges.numpy())[0] if len(g) else 0
@@ -90,7 +114,7 @@ def graph_stats(g: CurveGraph, box, delta: float, margin: float = 2.0) -> GraphS
         ends=100 * float((deg[counted] == 1).sum()) / n,
         junctions=100 * float((deg[counted] >= 3).sum()) / n,
         loops=100 * max(len(g.edges) - len(g) + n_comp, 0) / max(len(g), 1),
-        curvature=_hist(_turning(g, counted, delta), CURV_BINS),
+        curvature=soft_hist(_turning(g, counted, delta), CURV_CENTERS),
         segments=_hist(_segments(g, delta), SEG_BINS),
         samples=n)
 
