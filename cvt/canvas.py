@@ -58,12 +58,19 @@ def _touches_domain(mb: np.ndarray, inside) -> np.ndarray:
     return inside(pts.reshape(-1, 2)).reshape(len(mb), -1).any(1)
 
 
-def kind_rates(boxes: np.ndarray, kinds: np.ndarray, cut: np.ndarray, viewbox) -> dict[int, float]:
-    """Whole elements centred on the canvas per area, for each kind."""
+def kind_rates(boxes: np.ndarray, kinds: np.ndarray, cut: np.ndarray, viewbox,
+               shares: tuple[np.ndarray, np.ndarray] | None = None) -> dict[int, float]:
+    """Whole elements centred on the canvas per area, for each kind; with ``shares`` (owner
+    kind and weight per element, cvt.density.fragment_owners) the border's fragments count
+    their share of the element they are a piece of."""
+    from cvt.density import kind_counts
+
     x, y, w, h = viewbox
+    owner, weight = shares if shares is not None else (np.where(cut, -1, kinds),
+                                                       (~cut).astype(float))
     c = (boxes[:, :2] + boxes[:, 2:]) / 2
-    on = (c[:, 0] >= x) & (c[:, 0] < x + w) & (c[:, 1] >= y) & (c[:, 1] < y + h) & ~cut
-    return {int(k): float((on & (kinds == k)).sum() / (w * h)) for k in np.unique(kinds[on])}
+    n = kind_counts(np.arange(len(boxes)), c, owner, weight, (x, y, x + w, y + h))
+    return {k: v / (w * h) for k, v in n.items() if v > 0}
 
 
 def composites(boxes: np.ndarray, cut: np.ndarray, share: float = 0.1) -> list[list[int]]:

@@ -34,6 +34,7 @@ from functools import cached_property
 import numpy as np
 
 from cvt.companions import touches
+from cvt.density import fragment_owners, kind_counts
 from cvt.kinds import cut_mask, element_kinds
 from cvt.metrics import Layout, layering, patch_swd, pcf_distance
 from cvt.svg import SVG_NS, Exemplar, to_svg
@@ -121,22 +122,26 @@ def distances(ref: Scene, x: Scene) -> dict[str, float]:
 
 
 def density_error(ex: Exemplar, kinds, cut, x: KindLayout) -> float:
-    """Worst |rate_out / rate_ex - 1| over whole kinds (centres inside the canvas)."""
-    ref = layout(ex, kinds, [(e.index, 0.0, 0.0) for e in ex.elements], ex.viewbox[2:], 1.0)
+    """Worst |rate_out / rate_ex - 1| over whole kinds: copies centred inside the canvas, the
+    exemplar's border fragments counting their share of their kind (cvt.density)."""
+    owner, weight = fragment_owners(ex.elements, kinds, cut, ex.viewbox)
     worst = 0.0
-    for k in np.unique(kinds[~cut]):
-        r_ex = _inside(ref, k) / ref.area
-        if r_ex > 0:
-            worst = max(worst, abs(_inside(x, k) / x.area / r_ex - 1))
+    ref = _counts(ex, [(e.index, 0.0, 0.0) for e in ex.elements], ex.viewbox[2:], owner, weight)
+    out = _counts(ex, x.placements, x.size, owner, weight)
+    for k, n in ref.items():
+        if n > 0:
+            r_ex = n / (ex.viewbox[2] * ex.viewbox[3])
+            worst = max(worst, abs(out.get(k, 0.0) / (x.size[0] * x.size[1]) / r_ex - 1))
     return worst
 
 
-def _inside(lay: KindLayout, k: int) -> int:
-    c, (x0, y0) = lay.centers, lay.origin
-    ok = ((c[:, 0] >= x0) & (c[:, 0] < x0 + lay.size[0]) & (c[:, 1] >= y0)
-          & (c[:, 1] < y0 + lay.size[1]))
-    kk = np.array([lay.kind_ids[e] for e, _, _ in lay.placements])
-    return int((ok & (kk == k)).sum()) if len(kk) else 0
+def _counts(ex: Exemplar, placed, size, owner, weight) -> dict[int, float]:
+    if not placed:
+        return {}
+    b = np.stack([ex.elements[e].bbox + [dx, dy, dx, dy] for e, dx, dy in placed])
+    vx, vy = ex.viewbox[:2]
+    return kind_counts(np.array([e for e, _, _ in placed]), (b[:, :2] + b[:, 2:]) / 2, owner,
+                       weight, (vx, vy, vx + size[0], vy + size[1]))
 
 
 def integrity(cut: np.ndarray, x: KindLayout) -> float:

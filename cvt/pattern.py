@@ -27,6 +27,7 @@ from cvt.canvas import (
     repair_density,
 )
 from cvt.companions import companion_kinds, drop_orphans
+from cvt.density import fragment_owners
 from cvt.domain import Domain
 from cvt.kinds import cut_mask, element_kinds
 from cvt.lattice import detect_lattice, lattice_copies
@@ -115,7 +116,8 @@ def _arrange(ex, size, cfg, method, opts, boxes, cut, kinds, notes, on_iteration
 
 def _repair(placed, ex, boxes, cut, kinds, groups, out_box, area, seed, inside):
     """No clashes the exemplar never shows, companions paired, each kind at its density."""
-    rates = kind_rates(boxes, kinds, cut, ex.viewbox)
+    rates = kind_rates(boxes, kinds, cut, ex.viewbox,
+                       fragment_owners(ex.elements, kinds, cut, ex.viewbox))
     pairs = companion_kinds(boxes, kinds, cut)
     placed = drop_overlaps(placed, boxes, kinds, overlap_limits(boxes, kinds, cut))
     rng = np.random.default_rng(seed)
