@@ -16,6 +16,8 @@ from collections.abc import Callable
 
 import numpy as np
 
+from cvt.torus import images, periodic_max
+
 Placed = tuple[int, float, float]  # (element, dx, dy)
 DENSITY_TOL = 0.05  # repair when a kind is off by more than this share
 CANDIDATES = 600  # random spots tried per added element
@@ -77,8 +79,7 @@ def composites(boxes: np.ndarray, cut: np.ndarray, share: float = 0.1) -> list[l
     """Whole elements that sit on or overlap each other (box intersection >= ``share`` of the
     smaller box), as groups in z order: a butterfly with its heart. Shape: boxes (E, 4)."""
     area = np.prod(boxes[:, 2:] - boxes[:, :2], axis=1)
-    inter = np.clip(np.minimum(boxes[:, None, 2:], boxes[None, :, 2:])
-                    - np.maximum(boxes[:, None, :2], boxes[None, :, :2]), 0, None).prod(-1)
+    inter = _intersection(boxes, boxes)
     near = inter >= share * np.minimum(area[:, None], area[None, :])  # (E, E)
     near &= ~cut[:, None] & ~cut[None, :]
     label = np.arange(len(boxes))
@@ -96,11 +97,14 @@ def composites(boxes: np.ndarray, cut: np.ndarray, share: float = 0.1) -> list[l
 
 def repair_density(placed: list[Placed], boxes: np.ndarray, kinds: np.ndarray,
                    rates: dict[int, float], groups: list[list[int]], out_box, area: float,
-                   rng: np.random.Generator, inside=None) -> list[Placed]:
+                   rng: np.random.Generator, inside=None, torus=None,
+                   companions: dict[int, set[int]] | None = None) -> list[Placed]:
     """Add or remove copies so each kind has rate * area elements with their centre on the
     canvas (``area``: the canvas or domain area). Missing kinds are added as whole exemplar
     ``groups`` (composites, so a heart comes with its butterfly), each in the emptiest spot;
-    new copies go just above their kind's last copy in the drawing order."""
+    new copies go just above their kind's last copy in the drawing order. On a ``torus``
+    (tileable output, cvt.torus) clearances and overlaps wrap around the canvas. Copies in a
+    companion pair (cvt.companions) are never thinned."""
     placed = list(placed)
     want = {k: r * area for k, r in rates.items()}
 
@@ -119,7 +123,7 @@ def repair_density(placed: list[Placed], boxes: np.ndarray, kinds: np.ndarray,
         group = options[int(rng.integers(len(options)))]
         gb = boxes[group]
         spot = _emptiest(placed, boxes, np.r_[gb[:, :2].min(0), gb[:, 2:].max(0)], out_box,
-                         rng, inside)
+                         rng, inside, torus)
         if spot is None:
             break
         for e in group:
@@ -127,7 +131,8 @@ def repair_density(placed: list[Placed], boxes: np.ndarray, kinds: np.ndarray,
             gap[int(kinds[e])] -= 1
     for k, g in missing().items():
         if -g > max(0.5, DENSITY_TOL * want[k]):
-            placed = _thin(placed, boxes, kinds, k, int(round(-g)), out_box, inside)
+            placed = _thin(placed, boxes, kinds, k, int(round(-g)), out_box, inside, torus,
+                           companions or {})
     return placed
 
 
@@ -148,14 +153,15 @@ def overlap_limits(boxes: np.ndarray, kinds: np.ndarray, cut: np.ndarray,
 
 
 def drop_overlaps(placed: list[Placed], boxes: np.ndarray, kinds: np.ndarray,
-                  limits: np.ndarray) -> list[Placed]:
+                  limits: np.ndarray, torus=None) -> list[Placed]:
     """Drop copies overlapping an earlier kept copy more than any two exemplar elements of
     those kinds overlap (stacked duplicates, clashes the exemplar never shows)."""
     from cvt.reconstruction import box_iou
 
     if len(placed) < 2:
         return placed
-    iou = box_iou(moved_boxes(placed, boxes), moved_boxes(placed, boxes))
+    mb = moved_boxes(placed, boxes)
+    iou = periodic_max(box_iou, mb, mb, torus)
     kk = kinds[[p[0] for p in placed]]
     bad = iou > limits[kk[:, None], kk[None, :]]
     np.fill_diagonal(bad, False)
@@ -182,7 +188,8 @@ def _centred(placed, boxes, kinds, k, out_box, inside) -> np.ndarray:
     return on & (kinds[[p[0] for p in placed]] == k)
 
 
-def _emptiest(placed, boxes, box, out_box, rng, inside) -> tuple[float, float] | None:
+def _emptiest(placed, boxes, box, out_box, rng, inside, torus=None
+              ) -> tuple[float, float] | None:
     """Translation putting ``box`` where it has the most clearance to every placed box."""
     x0, y0, x1, y1 = out_box
     centre = (box[:2] + box[2:]) / 2
@@ -193,7 +200,7 @@ def _emptiest(placed, boxes, box, out_box, rng, inside) -> tuple[float, float] |
     if not len(spots):
         return None
     if placed:
-        mb = moved_boxes(placed, boxes)  # (P, 4)
+        mb = images(moved_boxes(placed, boxes), torus)  # (P, 4), x 9 on a torus
         gap = np.maximum(np.abs(spots[:, None] - (mb[None, :, :2] + mb[None, :, 2:]) / 2)
                          - half - (mb[None, :, 2:] - mb[None, :, :2]) / 2, 0)  # (S, P, 2)
         clear = np.linalg.norm(gap, axis=2).min(1)  # (S,)
@@ -206,6 +213,12 @@ def _emptiest(placed, boxes, box, out_box, rng, inside) -> tuple[float, float] |
     return float(d[0]), float(d[1])
 
 
+def _intersection(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Intersection areas of boxes. Shape: (A, 4), (B, 4) -> (A, B)."""
+    return np.clip(np.minimum(a[:, None, 2:], b[None, :, 2:])
+                   - np.maximum(a[:, None, :2], b[None, :, :2]), 0, None).prod(-1)
+
+
 def _insert(placed: list[Placed], p: Placed, kinds: np.ndarray) -> None:
     last = max((i for i, q in enumerate(placed) if kinds[q[0]] == kinds[p[0]]), default=None)
     if last is None:  # above the copies of lower elements (input z order)
@@ -213,21 +226,23 @@ def _insert(placed: list[Placed], p: Placed, kinds: np.ndarray) -> None:
     placed.insert(last + 1, p)
 
 
-def _thin(placed, boxes, kinds, k, n, out_box, inside) -> list[Placed]:
-    """Drop the n copies of kind k (centre on the canvas) that overlap same-kind copies most,
-    elements touching others (pairs) last."""
-    from cvt.companions import touches
+def _thin(placed, boxes, kinds, k, n, out_box, inside, torus=None,
+          companions=None) -> list[Placed]:
+    """Drop up to n copies of kind k (centre on the canvas) that overlap same-kind copies
+    most, elements touching others last; never one in a companion pair."""
+    from cvt.companions import in_pairs, touches
 
     on = np.nonzero(_centred(placed, boxes, kinds, k, out_box, inside))[0]
     mb = moved_boxes([placed[i] for i in on], boxes)
-    inter = np.clip(np.minimum(mb[:, None, 2:], mb[None, :, 2:])
-                    - np.maximum(mb[:, None, :2], mb[None, :, :2]), 0, None).prod(-1)
+    inter = periodic_max(_intersection, mb, mb, torus)
     np.fill_diagonal(inter, 0)
-    hosting = touches(moved_boxes(placed, boxes)).any(0)[on]  # keep elements in pairs
+    all_mb = moved_boxes(placed, boxes)
+    hosting = touches(all_mb, torus=torus).any(0)[on]  # touching others: last
+    paired = in_pairs(all_mb, kinds[[p[0] for p in placed]], companions or {}, torus)[on]
     alive = np.ones(len(on), bool)
-    for _ in range(min(n, len(on))):
+    for _ in range(min(n, int((~paired).sum()))):
         score = (inter * alive[None]).sum(1) - 1e30 * hosting
-        score[~alive] = -np.inf
+        score[~alive | paired] = -np.inf
         alive[int(np.argmax(score))] = False
     drop = set(on[~alive].tolist())
     return [p for i, p in enumerate(placed) if i not in drop]

@@ -241,3 +241,24 @@ def seam_swd(image: np.ndarray, band: int | None = None) -> tuple[float, float]:
     seam = strips(h, w)
     inner = np.mean([strips(h * k // 4, w * k // 4) for k in (1, 2, 3)])
     return seam, float(inner)
+
+
+def seam_step(image: np.ndarray, near: int = 8) -> tuple[float, float]:
+    """Mean colour step between the pixel rows (columns) on either side of the seams of the
+    image tiled 2 x 2, and the same between neighbouring rows (columns) within ``near`` pixels
+    of the seams, on either side. Shape: (H, W, 3).
+
+    A seam shows as a step all along the seam line (motifs cut there, gaps, doubled copies);
+    in a seamless tiling the seam line is a line like its neighbours, so the two are about
+    equal. Compared with the same neighbourhood (not with strips elsewhere, as
+    :func:`seam_swd` does) the ratio does not depend on which motifs happen to lie on the
+    seam: it separates tiles from untileable outputs where the strip patch SWD does not
+    (docs/cvt_real_eval.md).
+    """
+    big = np.tile(image, (2, 2, 1))  # (2H, 2W, 3)
+    h, w = image.shape[:2]
+    steps = []
+    for d, s in ((np.abs(np.diff(big, axis=1)).sum(2).mean(0), w - 1),  # (2W - 1,) columns
+                 (np.abs(np.diff(big, axis=0)).sum(2).mean(1), h - 1)):  # (2H - 1,) rows
+        steps.append((d[s], np.r_[d[s - near : s], d[s + 1 : s + near + 1]].mean()))
+    return float(np.mean([a for a, _ in steps])), float(np.mean([b for _, b in steps]))
