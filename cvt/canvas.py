@@ -129,10 +129,12 @@ def repair_density(placed: list[Placed], boxes: np.ndarray, kinds: np.ndarray,
         for e in group:
             _insert(placed, (e, *spot), kinds)
             gap[int(kinds[e])] -= 1
-    for k, g in missing().items():
-        if -g > max(0.5, DENSITY_TOL * want[k]):
-            placed = _thin(placed, boxes, kinds, k, int(round(-g)), out_box, inside, torus,
-                           companions or {})
+    for k in want:
+        gap = missing()
+        if -gap[k] > max(0.5, DENSITY_TOL * want[k]):
+            spare = {q: -g for q, g in gap.items()}
+            placed = _thin(placed, boxes, kinds, k, int(round(-gap[k])), out_box, inside, torus,
+                           companions or {}, spare)
     return placed
 
 
@@ -226,23 +228,36 @@ def _insert(placed: list[Placed], p: Placed, kinds: np.ndarray) -> None:
     placed.insert(last + 1, p)
 
 
-def _thin(placed, boxes, kinds, k, n, out_box, inside, torus=None,
-          companions=None) -> list[Placed]:
+def _thin(placed, boxes, kinds, k, n, out_box, inside, torus=None, companions=None,
+          spare=None) -> list[Placed]:
     """Drop up to n copies of kind k (centre on the canvas) that overlap same-kind copies
-    most, elements touching others last; never one in a companion pair."""
-    from cvt.companions import in_pairs, touches
+    most, elements touching others last. A copy in a companion pair goes only with its
+    partners (cvt.companions.pair_units), while their kinds are in surplus too (``spare``:
+    surplus per kind)."""
+    from cvt.companions import pair_units, touches
 
     on = np.nonzero(_centred(placed, boxes, kinds, k, out_box, inside))[0]
     mb = moved_boxes([placed[i] for i in on], boxes)
     inter = periodic_max(_intersection, mb, mb, torus)
     np.fill_diagonal(inter, 0)
     all_mb = moved_boxes(placed, boxes)
+    kk = kinds[[p[0] for p in placed]]
     hosting = touches(all_mb, torus=torus).any(0)[on]  # touching others: last
-    paired = in_pairs(all_mb, kinds[[p[0] for p in placed]], companions or {}, torus)[on]
-    alive = np.ones(len(on), bool)
-    for _ in range(min(n, int((~paired).sum()))):
-        score = (inter * alive[None]).sum(1) - 1e30 * hosting
-        score[~alive | paired] = -np.inf
-        alive[int(np.argmax(score))] = False
-    drop = set(on[~alive].tolist())
-    return [p for i, p in enumerate(placed) if i not in drop]
+    unit = pair_units(all_mb, kk, companions or {}, torus)  # (P,)
+    spare = {**(spare or {}), k: n}
+    alive = np.ones(len(placed), bool)
+    while spare[k] >= 1:
+        score = (inter * alive[on][None]).sum(1) - 1e30 * hosting
+        score[~alive[on]] = -np.inf
+        for j in np.argsort(-score, kind="stable"):
+            members = np.nonzero((unit == unit[on[j]]) & alive)[0]
+            kinds_of, count = np.unique(kk[members], return_counts=True)
+            if np.isfinite(score[j]) and all(c <= spare.get(int(q), 0) + 0.5
+                                             for q, c in zip(kinds_of, count, strict=True)):
+                alive[members] = False
+                for q, c in zip(kinds_of, count, strict=True):
+                    spare[int(q)] -= c
+                break
+        else:
+            break
+    return [p for p, a in zip(placed, alive, strict=True) if a]

@@ -6,7 +6,7 @@ companions of the flower, and the flower of each kind of its leaves). Neighbourh
 can leave a companion without one of its hosts; :func:`drop_orphans` removes those (and then
 the companions that only they hosted), the density repair (cvt.canvas) adds whole exemplar
 composites (host with companions) where elements are missing, and never thins an element
-out of a pair (:func:`in_pairs`).
+out of a pair (it thins whole :func:`pair_units`).
 """
 
 from __future__ import annotations
@@ -67,14 +67,18 @@ def drop_orphans(placed: list, boxes: np.ndarray, kinds: np.ndarray,
     return [p for p, k in zip(placed, keep, strict=True) if k]
 
 
-def in_pairs(mb: np.ndarray, kk: np.ndarray, companions: dict[int, set[int]],
-             torus=None) -> np.ndarray:
-    """Placed elements that touch a host or a companion of theirs. Shape: mb (P, 4) boxes,
-    kk (P,) kinds -> (P,) bool."""
+def pair_units(mb: np.ndarray, kk: np.ndarray, companions: dict[int, set[int]],
+               torus=None) -> np.ndarray:
+    """Component label per placed element: copies joined by companion touches (a flower with
+    its leaves) share one, lone copies have their own. Shape: mb (P, 4) boxes, kk (P,)
+    kinds -> (P,) long."""
+    from scipy.sparse import csr_matrix
+    from scipy.sparse.csgraph import connected_components
+
     on = touches(mb, torus=torus)
     pair = np.zeros_like(on)
     for c, hosts in companions.items():
         for h in hosts:
             link = (kk[:, None] == c) & (kk[None, :] == h)
             pair |= link | link.T
-    return (on & pair).any(1)
+    return connected_components(csr_matrix(on & pair), directed=False)[1]
