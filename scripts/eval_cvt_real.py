@@ -60,7 +60,7 @@ def _seam_line(name: str, svg: str, size, ex, r: dict, tileable: bool) -> str:
     line = (f"- {name}: colour step across the seam {step:.4f}, across the lines beside it "
             f"{near:.4f}, ratio {step / max(near, 1e-9):.2f}; strip patch SWD: seam {swd:.3f}, "
             f"interior {inner:.3f}, ratio {swd / max(inner, 1e-9):.2f}")
-    print(line, flush=True)
+    print(line, file=sys.stderr, flush=True)
     return line
 
 
@@ -95,10 +95,10 @@ def run_real(args, root: Path) -> None:
             line = [r["name"], str(r["elements"]), *cells, _fmt(r["pass"]), _fmt(r["density"]),
                     _fmt(r["integrity"]), _fmt(r["pairs"]), f"{wall:.1f}", f"{peak:.0f}"]
             lines.append("| " + " | ".join(line) + " |")
-            print(lines[-1], flush=True)
+            print(lines[-1], file=sys.stderr, flush=True)  # progress; the tables go to stdout
     text = ("\n".join(lines) + "\n\n" + totals(rows) + "\n\nOutputs tiled 2 x 2:\n\n"
             + "\n".join(seams) + "\n")
-    print(totals(rows))
+    print(text, end="")
     if args.out:
         write_text_atomic(args.out, text)
 
