@@ -20,7 +20,7 @@ cvt.kinds):
   copy away from the border, not entirely off the canvas);
 * ``pairs``: worst ratio, over companion kinds that touch another kind in >= 50 % of cases in
   the exemplar (a butterfly on a heart, leaves by a flower), of the output's rate to the
-  exemplar's.
+  exemplar's (on a tileable output, as tiled: across the seam too).
 """
 
 from __future__ import annotations
@@ -38,6 +38,7 @@ from cvt.density import fragment_owners, kind_counts
 from cvt.kinds import cut_mask, element_kinds
 from cvt.metrics import Layout, layering, patch_swd, pcf_distance
 from cvt.svg import SVG_NS, Exemplar, to_svg
+from cvt.torus import Torus
 
 PASS_METRICS = ("pcf", "swd", "depth", "degree", "layering")
 PIXELS = 128  # render width of the exemplar; outputs at the same pixels per user unit
@@ -158,16 +159,25 @@ def integrity(cut: np.ndarray, x: KindLayout) -> float:
     return float(1 - (off | frag).mean())
 
 
-def pair_rates(x: KindLayout, cut: np.ndarray, hosts=None) -> dict[tuple[int, int], float]:
+def pair_rates(x: KindLayout, cut: np.ndarray, hosts=None,
+               tileable: bool = False) -> dict[tuple[int, int], float]:
     """Share of companion-kind elements touching (boxes sharing >= a tenth of the smaller) an
     element of their host kind, per (companion, host); ``hosts`` picks the pairs (default:
-    those with a share >= 50 %)."""
+    those with a share >= 50 %). ``tileable``: the output is a tile, so pairs are counted as
+    tiled (one copy of each element, the one centred on the canvas; touches across the seam
+    count)."""
     if not x.placements:
         return {}
     b = np.stack([x.exemplar.elements[e].bbox + [dx, dy, dx, dy] for e, dx, dy in x.placements])
     kk = np.array([x.kind_ids[e] for e, _, _ in x.placements])
     ok = ~cut[[e for e, _, _ in x.placements]]
-    on = touches(b)
+    torus = None
+    if tileable:
+        (x0, y0), (w, h) = x.origin, x.size
+        torus = Torus.of((x0, y0, x0 + w, y0 + h))
+        c = (b[:, :2] + b[:, 2:]) / 2
+        ok &= (c[:, 0] >= x0) & (c[:, 0] < x0 + w) & (c[:, 1] >= y0) & (c[:, 1] < y0 + h)
+    on = touches(b, torus=torus)
     rates = {}
     for c in np.unique(kk[ok]):
         for h in np.unique(kk[ok]):
@@ -197,8 +207,9 @@ def svg_of(ex: Exemplar, placed, size) -> str:
     return to_svg(ex, placed, size, backdrop_nodes(ex, (vx, vy, vx + size[0], vy + size[1])))
 
 
-def judge(ex: Exemplar, out_svg: str, size, seed: int = 0) -> dict:
-    """Distances of output, R1 and R2 to the exemplar, verdicts and the extra checks."""
+def judge(ex: Exemplar, out_svg: str, size, seed: int = 0, tileable: bool = False) -> dict:
+    """Distances of output, R1 and R2 to the exemplar, verdicts and the extra checks
+    (``tileable``: companion pairs counted as tiled, :func:`pair_rates`)."""
     kinds = element_kinds(ex.elements, cut := cut_mask(ex.elements, ex.viewbox))
     scale = PIXELS / ex.viewbox[2]
     w, h = ex.viewbox[2:]
@@ -217,7 +228,7 @@ def judge(ex: Exemplar, out_svg: str, size, seed: int = 0) -> dict:
         a, b, o = d["R1"][m], d["R2"][m], d["out"][m]
         verdict[m] = bool(o <= (a + b) / 2 + 1e-9) if a > b else bool(o <= b + 1e-9)
     ex_pairs = pair_rates(ref.lay, cut)
-    out_pairs = pair_rates(scenes["out"].lay, cut, set(ex_pairs))
+    out_pairs = pair_rates(scenes["out"].lay, cut, set(ex_pairs), tileable)
     kept = min((out_pairs.get(p, 0.0) / r for p, r in ex_pairs.items()), default=float("nan"))
     lay = scenes["out"].lay
     tied = [m for m in PASS_METRICS if d["R1"][m] <= d["R2"][m]]

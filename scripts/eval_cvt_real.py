@@ -83,7 +83,7 @@ def run_real(args, root: Path) -> None:
             out = Path(tmp) / path.name
             wall, peak, _ = synthesize(path, out, args.scale, args.seed, args.method, args.extra,
                                        root)
-            r = judge(ex, out.read_text(), size)
+            r = judge(ex, out.read_text(), size, tileable="--tileable" in args.extra)
             r.update(name=path.stem, wall=wall, peak=peak)
             if path.stem.startswith("emoji_") or "--tileable" in args.extra:
                 seams.append(_seam_line(path.stem, out.read_text(), size, ex, r,

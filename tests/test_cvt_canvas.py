@@ -104,3 +104,18 @@ def test_thinning_never_breaks_a_pair():
     out = repair_density(placed, boxes, kinds, rates, [[0, 1]], (0, 0, 50, 50), 2500, rng,
                          companions=pairs)
     assert drop_orphans(out, boxes, kinds, pairs) == out  # nobody left alone
+
+
+def test_pairs_settle_between_the_rates_of_their_kinds():
+    """The border lets an exemplar show 10 hearts and 8 butterflies that sit on them: pairs
+    go in and out whole and settle where neither kind is off by more than it must be."""
+    boxes = np.array([[0, 0, 4, 4], [1, 1, 3, 3.0]])
+    kinds = np.array([0, 1])
+    pairs = companion_kinds(boxes, kinds, np.zeros(2, bool))
+    rates = {0: 10 / 2500, 1: 8 / 2500}
+    placed = [(e, dx, dy) for dx in range(2, 50, 10) for dy in (2, 20, 38) for e in (0, 1)]
+    rng = np.random.default_rng(0)
+    out = repair_density(placed, boxes, kinds, rates, [[0, 1]], (0, 0, 50, 50), 2500, rng,
+                         companions=pairs)
+    n = np.bincount([kinds[e] for e, _, _ in out], minlength=2)
+    assert n[0] == n[1] == 9  # 15 pairs thinned to 9: -10 % and +12.5 %
