@@ -20,6 +20,7 @@ import torch
 
 from cvt.sampling import Samples
 from cvt.search import Matches
+from cvt.torus import Torus
 
 
 def _votes(out_n: int, m: Matches, in_pos: torch.Tensor):
@@ -33,14 +34,15 @@ def _votes(out_n: int, m: Matches, in_pos: torch.Tensor):
 
 def assign_positions(pos: torch.Tensor, m: Matches, in_pos: torch.Tensor, mu: float = 0.05,
                      huber: float | None = None, iters: int = 80,
-                     tol: float = 1e-12) -> torch.Tensor:
+                     tol: float = 1e-12, torus: Torus | None = None) -> torch.Tensor:
     """Least-squares positions (seed 000 eq. 18). Shape: pos (N, 2) -> (N, 2).
 
     Solves (L + mu I) p = B^T W w + mu p_old by conjugate gradients, L the weighted Laplacian
     of the vote edges as a sparse CSR matrix. With ``huber`` (a length, e.g. delta) a vote
     whose residual at the current positions exceeds it is down-weighted by huber / residual
     (one reweighting step of a Huber fit), so a few bad matches cannot drag whole clusters.
-    Consistent votes (w == p_old differences) give p == p_old.
+    Consistent votes (w == p_old differences) give p == p_old. On a ``torus`` a vote across
+    the seam keeps the whole periods between its (unwrapped) samples.
     """
     n = pos.shape[0]
     a, b, want = _votes(n, m, in_pos)
@@ -49,6 +51,9 @@ def assign_positions(pos: torch.Tensor, m: Matches, in_pos: torch.Tensor, mu: fl
     dt = torch.float64
     want = want.to(dt)
     x = pos.to(dt)
+    if torus is not None:
+        d = x[a] - x[b]
+        want = want + (d - torus.diff(d))
     wt = torch.ones(a.numel(), dtype=dt)
     if huber is not None:
         resid = ((x[a] - x[b]) - want).norm(dim=1)
@@ -105,7 +110,7 @@ def missing_votes(out: Samples, m: Matches, inp: Samples, in_nbr: torch.Tensor,
 def add_missing(out: Samples, m: Matches, inp: Samples, in_nbr: torch.Tensor, delta: float,
                 radius: float, bounds: tuple[float, float, float, float],
                 threshold: float = 0.5, min_gap: float = 0.9,
-                min_new: float = 0.5) -> Samples:
+                min_new: float = 0.5, torus: Torus | None = None) -> Samples:
     """Existence assignment, additions only. Returns the new samples (possibly empty).
 
     A new sample copies z, feature and element from the input sample that voted for it; its
@@ -114,8 +119,11 @@ def add_missing(out: Samples, m: Matches, inp: Samples, in_nbr: torch.Tensor, de
     """
     p, s_i, s_o = missing_votes(out, m, inp, in_nbr, radius)
     x0, y0, x1, y1 = bounds
-    inside = (p[:, 0] >= x0) & (p[:, 0] <= x1) & (p[:, 1] >= y0) & (p[:, 1] <= y1)
-    p, s_i, s_o = p[inside], s_i[inside], s_o[inside]
+    if torus is None:
+        inside = (p[:, 0] >= x0) & (p[:, 0] <= x1) & (p[:, 1] >= y0) & (p[:, 1] <= y1)
+        p, s_i, s_o = p[inside], s_i[inside], s_o[inside]
+    else:  # the votes of one place must meet in one cell: on the canvas
+        p = torus.wrap(p)
     if p.shape[0] == 0:
         return out.select(torch.zeros(0, dtype=torch.long))
     cell = torch.floor(p / delta).long()  # (V, 2) votes landing in one cell are one place
@@ -128,7 +136,7 @@ def add_missing(out: Samples, m: Matches, inp: Samples, in_nbr: torch.Tensor, de
     counts = torch.bincount(voter // len(out), minlength=len(uniq))
     # Overlapping output neighborhoods: output samples within r of the place (seed 001 eq. 16
     # denominator).
-    near = torch.cdist(place, out.pos)  # (P, N)
+    near = torch.cdist(place, out.pos) if torus is None else torus.cdist(place, out.pos)  # (P, N)
     overlap = (near <= radius).sum(1).clamp_min(1)
     xi = counts / overlap
     keep = (xi > threshold) & (near.min(1).values >= min_gap * delta)

@@ -16,6 +16,8 @@ from collections.abc import Callable
 
 import numpy as np
 
+from cvt.torus import images, periodic_max
+
 Placed = tuple[int, float, float]  # (element, dx, dy)
 DENSITY_TOL = 0.05  # repair when a kind is off by more than this share
 CANDIDATES = 600  # random spots tried per added element
@@ -58,20 +60,26 @@ def _touches_domain(mb: np.ndarray, inside) -> np.ndarray:
     return inside(pts.reshape(-1, 2)).reshape(len(mb), -1).any(1)
 
 
-def kind_rates(boxes: np.ndarray, kinds: np.ndarray, cut: np.ndarray, viewbox) -> dict[int, float]:
-    """Whole elements centred on the canvas per area, for each kind."""
+def kind_rates(boxes: np.ndarray, kinds: np.ndarray, cut: np.ndarray, viewbox,
+               shares: tuple[np.ndarray, np.ndarray] | None = None) -> dict[int, float]:
+    """Whole elements centred on the canvas per area, for each kind; with ``shares`` (owner
+    kind and weight per element, cvt.density.fragment_owners) the border's fragments count
+    their share of the element they are a piece of."""
+    from cvt.density import kind_counts
+
     x, y, w, h = viewbox
+    owner, weight = shares if shares is not None else (np.where(cut, -1, kinds),
+                                                       (~cut).astype(float))
     c = (boxes[:, :2] + boxes[:, 2:]) / 2
-    on = (c[:, 0] >= x) & (c[:, 0] < x + w) & (c[:, 1] >= y) & (c[:, 1] < y + h) & ~cut
-    return {int(k): float((on & (kinds == k)).sum() / (w * h)) for k in np.unique(kinds[on])}
+    n = kind_counts(np.arange(len(boxes)), c, owner, weight, (x, y, x + w, y + h))
+    return {k: v / (w * h) for k, v in n.items() if v > 0}
 
 
 def composites(boxes: np.ndarray, cut: np.ndarray, share: float = 0.1) -> list[list[int]]:
     """Whole elements that sit on or overlap each other (box intersection >= ``share`` of the
     smaller box), as groups in z order: a butterfly with its heart. Shape: boxes (E, 4)."""
     area = np.prod(boxes[:, 2:] - boxes[:, :2], axis=1)
-    inter = np.clip(np.minimum(boxes[:, None, 2:], boxes[None, :, 2:])
-                    - np.maximum(boxes[:, None, :2], boxes[None, :, :2]), 0, None).prod(-1)
+    inter = _intersection(boxes, boxes)
     near = inter >= share * np.minimum(area[:, None], area[None, :])  # (E, E)
     near &= ~cut[:, None] & ~cut[None, :]
     label = np.arange(len(boxes))
@@ -89,11 +97,16 @@ def composites(boxes: np.ndarray, cut: np.ndarray, share: float = 0.1) -> list[l
 
 def repair_density(placed: list[Placed], boxes: np.ndarray, kinds: np.ndarray,
                    rates: dict[int, float], groups: list[list[int]], out_box, area: float,
-                   rng: np.random.Generator, inside=None) -> list[Placed]:
+                   rng: np.random.Generator, inside=None, torus=None,
+                   companions: dict[int, set[int]] | None = None) -> list[Placed]:
     """Add or remove copies so each kind has rate * area elements with their centre on the
     canvas (``area``: the canvas or domain area). Missing kinds are added as whole exemplar
     ``groups`` (composites, so a heart comes with its butterfly), each in the emptiest spot;
-    new copies go just above their kind's last copy in the drawing order."""
+    new copies go just above their kind's last copy in the drawing order. On a ``torus``
+    (tileable output, cvt.torus) clearances and overlaps wrap around the canvas. Copies in a
+    companion pair (cvt.companions) are thinned only with their partners. A group is added
+    or removed only while that lowers the largest relative error of its kinds (the border
+    makes an exemplar show 13 flowers and 11 of their leaves: pairs settle between)."""
     placed = list(placed)
     want = {k: r * area for k, r in rates.items()}
 
@@ -110,18 +123,37 @@ def repair_density(placed: list[Placed], boxes: np.ndarray, kinds: np.ndarray,
             break
         options = [g for g in groups if any(kinds[e] == k for e in g)]
         group = options[int(rng.integers(len(options)))]
+        if not _improves(gap, want, _counts(kinds[group])):
+            break
         gb = boxes[group]
         spot = _emptiest(placed, boxes, np.r_[gb[:, :2].min(0), gb[:, 2:].max(0)], out_box,
-                         rng, inside)
+                         rng, inside, torus)
         if spot is None:
             break
         for e in group:
             _insert(placed, (e, *spot), kinds)
             gap[int(kinds[e])] -= 1
-    for k, g in missing().items():
-        if -g > max(0.5, DENSITY_TOL * want[k]):
-            placed = _thin(placed, boxes, kinds, k, int(round(-g)), out_box, inside)
+    for k in want:
+        gap = missing()
+        if -gap[k] > max(0.5, DENSITY_TOL * want[k]):
+            placed = _thin(placed, boxes, kinds, k, gap, want, out_box, inside, torus,
+                           companions or {})
     return placed
+
+
+def _counts(kk: np.ndarray) -> dict[int, int]:
+    q, c = np.unique(kk, return_counts=True)
+    return {int(a): int(b) for a, b in zip(q, c, strict=True)}
+
+
+def _improves(gap: dict[int, float], want: dict[int, float], change: dict[int, int]) -> bool:
+    """Whether changing the copies of some kinds by ``change`` (+ added, - removed) lowers the
+    largest relative density error among them (``gap``: wanted - present, per kind)."""
+    q = [k for k in change if want.get(k, 0) > 0]
+    if not q:
+        return False
+    before = max(abs(gap[k]) / want[k] for k in q)
+    return max(abs(gap[k] - change[k]) / want[k] for k in q) < before - 1e-9
 
 
 def overlap_limits(boxes: np.ndarray, kinds: np.ndarray, cut: np.ndarray,
@@ -141,14 +173,15 @@ def overlap_limits(boxes: np.ndarray, kinds: np.ndarray, cut: np.ndarray,
 
 
 def drop_overlaps(placed: list[Placed], boxes: np.ndarray, kinds: np.ndarray,
-                  limits: np.ndarray) -> list[Placed]:
+                  limits: np.ndarray, torus=None) -> list[Placed]:
     """Drop copies overlapping an earlier kept copy more than any two exemplar elements of
     those kinds overlap (stacked duplicates, clashes the exemplar never shows)."""
     from cvt.reconstruction import box_iou
 
     if len(placed) < 2:
         return placed
-    iou = box_iou(moved_boxes(placed, boxes), moved_boxes(placed, boxes))
+    mb = moved_boxes(placed, boxes)
+    iou = periodic_max(box_iou, mb, mb, torus)
     kk = kinds[[p[0] for p in placed]]
     bad = iou > limits[kk[:, None], kk[None, :]]
     np.fill_diagonal(bad, False)
@@ -175,7 +208,8 @@ def _centred(placed, boxes, kinds, k, out_box, inside) -> np.ndarray:
     return on & (kinds[[p[0] for p in placed]] == k)
 
 
-def _emptiest(placed, boxes, box, out_box, rng, inside) -> tuple[float, float] | None:
+def _emptiest(placed, boxes, box, out_box, rng, inside, torus=None
+              ) -> tuple[float, float] | None:
     """Translation putting ``box`` where it has the most clearance to every placed box."""
     x0, y0, x1, y1 = out_box
     centre = (box[:2] + box[2:]) / 2
@@ -186,7 +220,7 @@ def _emptiest(placed, boxes, box, out_box, rng, inside) -> tuple[float, float] |
     if not len(spots):
         return None
     if placed:
-        mb = moved_boxes(placed, boxes)  # (P, 4)
+        mb = images(moved_boxes(placed, boxes), torus)  # (P, 4), x 9 on a torus
         gap = np.maximum(np.abs(spots[:, None] - (mb[None, :, :2] + mb[None, :, 2:]) / 2)
                          - half - (mb[None, :, 2:] - mb[None, :, :2]) / 2, 0)  # (S, P, 2)
         clear = np.linalg.norm(gap, axis=2).min(1)  # (S,)
@@ -199,6 +233,12 @@ def _emptiest(placed, boxes, box, out_box, rng, inside) -> tuple[float, float] |
     return float(d[0]), float(d[1])
 
 
+def _intersection(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Intersection areas of boxes. Shape: (A, 4), (B, 4) -> (A, B)."""
+    return np.clip(np.minimum(a[:, None, 2:], b[None, :, 2:])
+                   - np.maximum(a[:, None, :2], b[None, :, :2]), 0, None).prod(-1)
+
+
 def _insert(placed: list[Placed], p: Placed, kinds: np.ndarray) -> None:
     last = max((i for i, q in enumerate(placed) if kinds[q[0]] == kinds[p[0]]), default=None)
     if last is None:  # above the copies of lower elements (input z order)
@@ -206,21 +246,35 @@ def _insert(placed: list[Placed], p: Placed, kinds: np.ndarray) -> None:
     placed.insert(last + 1, p)
 
 
-def _thin(placed, boxes, kinds, k, n, out_box, inside) -> list[Placed]:
-    """Drop the n copies of kind k (centre on the canvas) that overlap same-kind copies most,
-    elements touching others (pairs) last."""
-    from cvt.companions import touches
+def _thin(placed, boxes, kinds, k, gap, want, out_box, inside, torus=None,
+          companions=None) -> list[Placed]:
+    """Drop copies of kind k (centre on the canvas) that overlap same-kind copies most,
+    elements touching others last, while that lowers the density error (:func:`_improves`;
+    ``gap``: wanted - present per kind). A copy in a companion pair goes only with its
+    partners (cvt.companions.pair_units)."""
+    from cvt.companions import pair_units, touches
 
     on = np.nonzero(_centred(placed, boxes, kinds, k, out_box, inside))[0]
     mb = moved_boxes([placed[i] for i in on], boxes)
-    inter = np.clip(np.minimum(mb[:, None, 2:], mb[None, :, 2:])
-                    - np.maximum(mb[:, None, :2], mb[None, :, :2]), 0, None).prod(-1)
+    inter = periodic_max(_intersection, mb, mb, torus)
     np.fill_diagonal(inter, 0)
-    hosting = touches(moved_boxes(placed, boxes)).any(0)[on]  # keep elements in pairs
-    alive = np.ones(len(on), bool)
-    for _ in range(min(n, len(on))):
-        score = (inter * alive[None]).sum(1) - 1e30 * hosting
-        score[~alive] = -np.inf
-        alive[int(np.argmax(score))] = False
-    drop = set(on[~alive].tolist())
-    return [p for i, p in enumerate(placed) if i not in drop]
+    all_mb = moved_boxes(placed, boxes)
+    kk = kinds[[p[0] for p in placed]]
+    hosting = touches(all_mb, torus=torus).any(0)[on]  # touching others: last
+    unit = pair_units(all_mb, kk, companions or {}, torus)  # (P,)
+    gap = dict(gap)
+    alive = np.ones(len(placed), bool)
+    while True:
+        score = (inter * alive[on][None]).sum(1) - 1e30 * hosting
+        score[~alive[on]] = -np.inf
+        for j in np.argsort(-score, kind="stable"):
+            members = np.nonzero((unit == unit[on[j]]) & alive)[0]
+            change = {q: -c for q, c in _counts(kk[members]).items()}
+            if np.isfinite(score[j]) and _improves(gap, want, change):
+                alive[members] = False
+                for q, c in change.items():
+                    gap[q] = gap.get(q, 0.0) - c
+                break
+        else:
+            break
+    return [p for p, a in zip(placed, alive, strict=True) if a]

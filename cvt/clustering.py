@@ -34,6 +34,7 @@ import torch
 from cvt.pair_votes import PairVotes
 from cvt.shape_energy import ShapeEnergy
 from cvt.spectral import normalized_cut
+from cvt.torus import Torus, offsets
 
 _TOL = 1e-9
 
@@ -77,11 +78,18 @@ class _Csr:
         return np.repeat(rows, length), first + np.arange(ends[-1] if len(ends) else 0)
 
 
-def _close_pairs(pos: np.ndarray, radius: float):
-    """All unordered pairs closer than ``radius``. Shape: (N, 2) -> a, b (P,)."""
+def _close_pairs(pos: np.ndarray, radius: float, torus: Torus | None = None):
+    """All unordered pairs closer than ``radius`` (on the ``torus``: across the seam too).
+    Shape: (N, 2) -> a, b (P,)."""
     from scipy.spatial import cKDTree
 
-    pairs = cKDTree(pos).query_pairs(radius, output_type="ndarray")
+    if torus is None:
+        tree = cKDTree(pos)
+    else:
+        period = np.asarray(torus.period)
+        local = torus.wrap(pos) - np.asarray(torus.origin)
+        tree = cKDTree(np.where(local >= period, 0.0, local), boxsize=period)
+    pairs = tree.query_pairs(radius, output_type="ndarray")
     return pairs[:, 0].astype(np.int64), pairs[:, 1].astype(np.int64)
 
 
@@ -94,12 +102,14 @@ class Clustering:
         self.n = len(self.pos)
         self.labels = labels.numpy().astype(np.int64).copy()
         self.p = params
-        d = np.linalg.norm(self.pos[votes.a.numpy()] - self.pos[votes.b.numpy()], axis=1)
+        self.torus = shape.torus
+        d = np.linalg.norm(offsets(self.pos[votes.a.numpy()] - self.pos[votes.b.numpy()],
+                                   self.torus), axis=1)
         near = d < params.lam * delta  # seed 000 eq. 12 range
         la, lb = votes.a.numpy()[near], votes.b.numpy()[near]
         link = votes.link.numpy()[near]
         self.links = _Csr(la, lb, self.n, 4.0 * (1.0 - 2.0 * link), link)  # c, l
-        self.adj = _Csr(*_close_pairs(self.pos, params.adjacent * delta), self.n)
+        self.adj = _Csr(*_close_pairs(self.pos, params.adjacent * delta, self.torus), self.n)
         self.shape = shape
         self.members: dict[int, np.ndarray] = {
             int(c): np.flatnonzero(self.labels == c) for c in np.unique(self.labels)}
@@ -134,7 +144,7 @@ class Clustering:
         c = self.adj.col[e]
         same = self.labels[r] == self.labels[c]
         r, c = r[same], c[same]
-        ang = np.arctan2(*(self.pos[c] - self.pos[r]).T[::-1])
+        ang = np.arctan2(*offsets(self.pos[c] - self.pos[r], self.torus).T[::-1])
         order = np.lexsort((ang, r))
         r, ang = r[order], ang[order]
         gap = np.full(self.n, 2 * np.pi)

@@ -2,10 +2,11 @@
 
 In the exemplar, kind c is a companion of kind h when most c elements (``SHARE``) touch an h
 element: their boxes share at least a tenth of the smaller box (so leaves around a flower are
-companions of the flower, and the flower of its leaves). Neighbourhood synthesis can leave a
-companion alone on the background; :func:`drop_orphans` removes those, and the density repair
-(cvt.canvas) then adds whole exemplar composites (host with companion) where elements are
-missing.
+companions of the flower, and the flower of each kind of its leaves). Neighbourhood synthesis
+can leave a companion without one of its hosts; :func:`drop_orphans` removes those (and then
+the companions that only they hosted), the density repair (cvt.canvas) adds whole exemplar
+composites (host with companions) where elements are missing, and never thins an element
+out of a pair (it thins whole :func:`pair_units`).
 """
 
 from __future__ import annotations
@@ -15,39 +16,69 @@ import numpy as np
 SHARE = 0.8
 
 
-def touches(b: np.ndarray, share: float = 0.1) -> np.ndarray:
-    """Boxes i and j share >= ``share`` of the smaller one (i != j). Shape: (N, 4) -> (N, N)."""
-    area = np.prod(b[:, 2:] - b[:, :2], axis=1)
-    inter = np.clip(np.minimum(b[:, None, 2:], b[None, :, 2:])
-                    - np.maximum(b[:, None, :2], b[None, :, :2]), 0, None).prod(-1)
-    out = inter >= share * np.minimum(area[:, None], area[None, :])
+def touches(b: np.ndarray, share: float = 0.1, torus=None) -> np.ndarray:
+    """Boxes i and j share >= ``share`` of the smaller one (i != j; on a ``torus``, cvt.torus,
+    across the seam too). Shape: (N, 4) -> (N, N)."""
+    from cvt.torus import periodic_max
+
+    out = periodic_max(lambda p, q: _touch(p, q, share), b, b, torus)
     np.fill_diagonal(out, False)
     return out
 
 
-def companion_kinds(boxes: np.ndarray, kinds: np.ndarray, cut: np.ndarray) -> dict[int, int]:
-    """companion kind -> host kind, from the exemplar. Shape: boxes (E, 4), kinds (E,)."""
+def _touch(a: np.ndarray, b: np.ndarray, share: float) -> np.ndarray:
+    """Shape: (A, 4), (B, 4) -> (A, B) bool."""
+    area_a, area_b = np.prod(a[:, 2:] - a[:, :2], axis=1), np.prod(b[:, 2:] - b[:, :2], axis=1)
+    inter = np.clip(np.minimum(a[:, None, 2:], b[None, :, 2:])
+                    - np.maximum(a[:, None, :2], b[None, :, :2]), 0, None).prod(-1)
+    return inter >= share * np.minimum(area_a[:, None], area_b[None, :])
+
+
+def companion_kinds(boxes: np.ndarray, kinds: np.ndarray,
+                    cut: np.ndarray) -> dict[int, set[int]]:
+    """companion kind -> its host kinds, from the exemplar. Shape: boxes (E, 4), kinds (E,)."""
     on = touches(boxes) & ~cut[None, :]
-    out = {}
+    out: dict[int, set[int]] = {}
     for c in np.unique(kinds[~cut]):
         sel = np.nonzero((kinds == c) & ~cut)[0]
         for h in np.unique(kinds[~cut]):
             if h != c and on[np.ix_(sel, np.nonzero(kinds == h)[0])].any(1).mean() >= SHARE:
-                out[int(c)] = int(h)
+                out.setdefault(int(c), set()).add(int(h))
     return out
 
 
 def drop_orphans(placed: list, boxes: np.ndarray, kinds: np.ndarray,
-                 companions: dict[int, int]) -> list:
-    """Remove placed companions that touch no element of their host kind."""
+                 companions: dict[int, set[int]], torus=None) -> list:
+    """Remove placed companions that touch no element of one of their host kinds, until
+    none is left (a dropped flower orphans its leaves)."""
     if not companions or not placed:
         return placed
     from cvt.canvas import moved_boxes
 
-    on = touches(moved_boxes(placed, boxes))
+    on = touches(moved_boxes(placed, boxes), torus=torus)
     kk = kinds[[p[0] for p in placed]]
     keep = np.ones(len(placed), bool)
-    for i, k in enumerate(kk):
-        if int(k) in companions:
-            keep[i] = bool((on[i] & (kk == companions[int(k)])).any())
+    while True:
+        ok = np.array([all((on[i] & keep & (kk == h)).any() for h in companions.get(int(k), ()))
+                       for i, k in enumerate(kk)])
+        if (keep <= ok).all():
+            break
+        keep &= ok
     return [p for p, k in zip(placed, keep, strict=True) if k]
+
+
+def pair_units(mb: np.ndarray, kk: np.ndarray, companions: dict[int, set[int]],
+               torus=None) -> np.ndarray:
+    """Component label per placed element: copies joined by companion touches (a flower with
+    its leaves) share one, lone copies have their own. Shape: mb (P, 4) boxes, kk (P,)
+    kinds -> (P,) long."""
+    from scipy.sparse import csr_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    on = touches(mb, torus=torus)
+    pair = np.zeros_like(on)
+    for c, hosts in companions.items():
+        for h in hosts:
+            link = (kk[:, None] == c) & (kk[None, :] == h)
+            pair |= link | link.T
+    return connected_components(csr_matrix(on & pair), directed=False)[1]

@@ -17,26 +17,27 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
 from cvt.pair_votes import PairVotes
+from cvt.torus import Torus, offsets
 
 
-def sample_order(votes: PairVotes, out_pos: torch.Tensor, delta: float):
+def sample_order(votes: PairVotes, out_pos: torch.Tensor, delta: float, torus: Torus | None = None):
     """f_s for pairs closer than 2 delta (seed 000 eq. 5): P(a below b) and P(b below a).
 
     Shape: -> a, b (P,) long, f_ab, f_ba (P,) float64.
     """
-    close = (out_pos[votes.a] - out_pos[votes.b]).norm(dim=1) < 2 * delta
+    close = offsets(out_pos[votes.a] - out_pos[votes.b], torus).norm(dim=1) < 2 * delta
     v = votes.select(close)
     n = v.n.double()
     return v.a, v.b, v.below.double() / n, v.above.double() / n
 
 
 def cluster_preferences(votes: PairVotes, out_pos: torch.Tensor, cluster: torch.Tensor,
-                        n_clusters: int, delta: float) -> np.ndarray:
+                        n_clusters: int, delta: float, torus: Torus | None = None) -> np.ndarray:
     """f_C(C_i, C_j) (seed 000 eq. 8): mean f_s over close sample pairs of two clusters, 0 if none.
 
     ``cluster`` (N,) must hold ids 0..n_clusters-1. Shape: -> (C, C), [i, j] = P(i below j).
     """
-    a, b, f_ab, f_ba = sample_order(votes, out_pos, delta)
+    a, b, f_ab, f_ba = sample_order(votes, out_pos, delta, torus)
     ca, cb = cluster[a].numpy(), cluster[b].numpy()
     cross = ca != cb
     ca, cb, f_ab, f_ba = ca[cross], cb[cross], f_ab.numpy()[cross], f_ba.numpy()[cross]

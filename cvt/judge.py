@@ -20,7 +20,7 @@ cvt.kinds):
   copy away from the border, not entirely off the canvas);
 * ``pairs``: worst ratio, over companion kinds that touch another kind in >= 50 % of cases in
   the exemplar (a butterfly on a heart, leaves by a flower), of the output's rate to the
-  exemplar's.
+  exemplar's (on a tileable output, as tiled: across the seam too).
 """
 
 from __future__ import annotations
@@ -34,9 +34,11 @@ from functools import cached_property
 import numpy as np
 
 from cvt.companions import touches
+from cvt.density import fragment_owners, kind_counts
 from cvt.kinds import cut_mask, element_kinds
 from cvt.metrics import Layout, layering, patch_swd, pcf_distance
 from cvt.svg import SVG_NS, Exemplar, to_svg
+from cvt.torus import Torus
 
 PASS_METRICS = ("pcf", "swd", "depth", "degree", "layering")
 PIXELS = 128  # render width of the exemplar; outputs at the same pixels per user unit
@@ -121,22 +123,26 @@ def distances(ref: Scene, x: Scene) -> dict[str, float]:
 
 
 def density_error(ex: Exemplar, kinds, cut, x: KindLayout) -> float:
-    """Worst |rate_out / rate_ex - 1| over whole kinds (centres inside the canvas)."""
-    ref = layout(ex, kinds, [(e.index, 0.0, 0.0) for e in ex.elements], ex.viewbox[2:], 1.0)
+    """Worst |rate_out / rate_ex - 1| over whole kinds: copies centred inside the canvas, the
+    exemplar's border fragments counting their share of their kind (cvt.density)."""
+    owner, weight = fragment_owners(ex.elements, kinds, cut, ex.viewbox)
     worst = 0.0
-    for k in np.unique(kinds[~cut]):
-        r_ex = _inside(ref, k) / ref.area
-        if r_ex > 0:
-            worst = max(worst, abs(_inside(x, k) / x.area / r_ex - 1))
+    ref = _counts(ex, [(e.index, 0.0, 0.0) for e in ex.elements], ex.viewbox[2:], owner, weight)
+    out = _counts(ex, x.placements, x.size, owner, weight)
+    for k, n in ref.items():
+        if n > 0:
+            r_ex = n / (ex.viewbox[2] * ex.viewbox[3])
+            worst = max(worst, abs(out.get(k, 0.0) / (x.size[0] * x.size[1]) / r_ex - 1))
     return worst
 
 
-def _inside(lay: KindLayout, k: int) -> int:
-    c, (x0, y0) = lay.centers, lay.origin
-    ok = ((c[:, 0] >= x0) & (c[:, 0] < x0 + lay.size[0]) & (c[:, 1] >= y0)
-          & (c[:, 1] < y0 + lay.size[1]))
-    kk = np.array([lay.kind_ids[e] for e, _, _ in lay.placements])
-    return int((ok & (kk == k)).sum()) if len(kk) else 0
+def _counts(ex: Exemplar, placed, size, owner, weight) -> dict[int, float]:
+    if not placed:
+        return {}
+    b = np.stack([ex.elements[e].bbox + [dx, dy, dx, dy] for e, dx, dy in placed])
+    vx, vy = ex.viewbox[:2]
+    return kind_counts(np.array([e for e, _, _ in placed]), (b[:, :2] + b[:, 2:]) / 2, owner,
+                       weight, (vx, vy, vx + size[0], vy + size[1]))
 
 
 def integrity(cut: np.ndarray, x: KindLayout) -> float:
@@ -153,16 +159,25 @@ def integrity(cut: np.ndarray, x: KindLayout) -> float:
     return float(1 - (off | frag).mean())
 
 
-def pair_rates(x: KindLayout, cut: np.ndarray, hosts=None) -> dict[tuple[int, int], float]:
+def pair_rates(x: KindLayout, cut: np.ndarray, hosts=None,
+               tileable: bool = False) -> dict[tuple[int, int], float]:
     """Share of companion-kind elements touching (boxes sharing >= a tenth of the smaller) an
     element of their host kind, per (companion, host); ``hosts`` picks the pairs (default:
-    those with a share >= 50 %)."""
+    those with a share >= 50 %). ``tileable``: the output is a tile, so pairs are counted as
+    tiled (one copy of each element, the one centred on the canvas; touches across the seam
+    count)."""
     if not x.placements:
         return {}
     b = np.stack([x.exemplar.elements[e].bbox + [dx, dy, dx, dy] for e, dx, dy in x.placements])
     kk = np.array([x.kind_ids[e] for e, _, _ in x.placements])
     ok = ~cut[[e for e, _, _ in x.placements]]
-    on = touches(b)
+    torus = None
+    if tileable:
+        (x0, y0), (w, h) = x.origin, x.size
+        torus = Torus.of((x0, y0, x0 + w, y0 + h))
+        c = (b[:, :2] + b[:, 2:]) / 2
+        ok &= (c[:, 0] >= x0) & (c[:, 0] < x0 + w) & (c[:, 1] >= y0) & (c[:, 1] < y0 + h)
+    on = touches(b, torus=torus)
     rates = {}
     for c in np.unique(kk[ok]):
         for h in np.unique(kk[ok]):
@@ -192,8 +207,9 @@ def svg_of(ex: Exemplar, placed, size) -> str:
     return to_svg(ex, placed, size, backdrop_nodes(ex, (vx, vy, vx + size[0], vy + size[1])))
 
 
-def judge(ex: Exemplar, out_svg: str, size, seed: int = 0) -> dict:
-    """Distances of output, R1 and R2 to the exemplar, verdicts and the extra checks."""
+def judge(ex: Exemplar, out_svg: str, size, seed: int = 0, tileable: bool = False) -> dict:
+    """Distances of output, R1 and R2 to the exemplar, verdicts and the extra checks
+    (``tileable``: companion pairs counted as tiled, :func:`pair_rates`)."""
     kinds = element_kinds(ex.elements, cut := cut_mask(ex.elements, ex.viewbox))
     scale = PIXELS / ex.viewbox[2]
     w, h = ex.viewbox[2:]
@@ -212,7 +228,7 @@ def judge(ex: Exemplar, out_svg: str, size, seed: int = 0) -> dict:
         a, b, o = d["R1"][m], d["R2"][m], d["out"][m]
         verdict[m] = bool(o <= (a + b) / 2 + 1e-9) if a > b else bool(o <= b + 1e-9)
     ex_pairs = pair_rates(ref.lay, cut)
-    out_pairs = pair_rates(scenes["out"].lay, cut, set(ex_pairs))
+    out_pairs = pair_rates(scenes["out"].lay, cut, set(ex_pairs), tileable)
     kept = min((out_pairs.get(p, 0.0) / r for p, r in ex_pairs.items()), default=float("nan"))
     lay = scenes["out"].lay
     tied = [m for m in PASS_METRICS if d["R1"][m] <= d["R2"][m]]
@@ -236,3 +252,24 @@ def seam_swd(image: np.ndarray, band: int | None = None) -> tuple[float, float]:
     seam = strips(h, w)
     inner = np.mean([strips(h * k // 4, w * k // 4) for k in (1, 2, 3)])
     return seam, float(inner)
+
+
+def seam_step(image: np.ndarray, near: int = 8) -> tuple[float, float]:
+    """Mean colour step between the pixel rows (columns) on either side of the seams of the
+    image tiled 2 x 2, and the same between neighbouring rows (columns) within ``near`` pixels
+    of the seams, on either side. Shape: (H, W, 3).
+
+    A seam shows as a step all along the seam line (motifs cut there, gaps, doubled copies);
+    in a seamless tiling the seam line is a line like its neighbours, so the two are about
+    equal. Compared with the same neighbourhood (not with strips elsewhere, as
+    :func:`seam_swd` does) the ratio does not depend on which motifs happen to lie on the
+    seam: it separates tiles from untileable outputs where the strip patch SWD does not
+    (docs/cvt_real_eval.md).
+    """
+    big = np.tile(image, (2, 2, 1))  # (2H, 2W, 3)
+    h, w = image.shape[:2]
+    steps = []
+    for d, s in ((np.abs(np.diff(big, axis=1)).sum(2).mean(0), w - 1),  # (2W - 1,) columns
+                 (np.abs(np.diff(big, axis=0)).sum(2).mean(1), h - 1)):  # (2H - 1,) rows
+        steps.append((d[s], np.r_[d[s - near : s], d[s + 1 : s + near + 1]].mean()))
+    return float(np.mean([a for a, _ in steps])), float(np.mean([b for _, b in steps]))

@@ -56,14 +56,27 @@ def cut_mask(elements: list[Element], viewbox) -> np.ndarray:
 def _straight_on_border(e: Element, lo: np.ndarray, hi: np.ndarray, eps: float) -> bool:
     """Whether the outline runs along a canvas border line for a stretch (a cut edge), not
     just touches it (a dot tangent to the border is whole)."""
-    pts = np.concatenate([r for s in e.shapes for r in s.rings])  # (P, 2)
+    rings = [r for s in e.shapes for r in s.rings]
+    pts = np.concatenate(rings)  # (P, 2)
     ext = np.ptp(pts, axis=0)
     for axis in (0, 1):
         for line in (lo[axis], hi[axis]):
             on = pts[np.abs(pts[:, axis] - line) <= eps, 1 - axis]
             if len(on) >= 2 and np.ptp(on) > 0.2 * ext[1 - axis]:
                 return True
+            if any(_edge_on_line(r, axis, line, eps, 0.05 * ext[1 - axis]) for r in rings):
+                return True
     return False
+
+
+def _edge_on_line(ring: np.ndarray, axis: int, line: float, eps: float, min_len: float) -> bool:
+    """Whether one outline edge (two consecutive points) lies on the border line: a thin
+    stroke cut across (the cut edge is only as long as the stroke is wide). A curve tangent
+    to the line has no such edge. Shape: ring (P, 2)."""
+    nxt = np.roll(ring, -1, axis=0)
+    on = (np.abs(ring[:, axis] - line) <= eps) & (np.abs(nxt[:, axis] - line) <= eps)
+    return bool((on & (np.abs(nxt[:, 1 - axis] - ring[:, 1 - axis]) > max(min_len, 10 * eps))
+                 ).any())
 
 
 def element_kinds(elements: list[Element], cut: np.ndarray | None = None) -> np.ndarray:

@@ -22,6 +22,8 @@ import numpy as np
 import torch
 from scipy.optimize import linear_sum_assignment
 
+from cvt.torus import Torus
+
 
 @dataclass(frozen=True)
 class DistanceParams:
@@ -30,8 +32,11 @@ class DistanceParams:
     c_out: float = 4.0  # cost of leaving an output sample unmatched (seed 001 eq. 10-12)
 
 
-def neighborhoods(pos: torch.Tensor, radius: float, k_max: int, chunk: int = 2048) -> torch.Tensor:
-    """Indices of up to ``k_max`` nearest other samples within ``radius``, -1 padded.
+def neighborhoods(pos: torch.Tensor, radius: float, k_max: int, chunk: int = 2048,
+                  torus: Torus | None = None) -> torch.Tensor:
+    """Indices of up to ``k_max`` nearest other samples within ``radius``, -1 padded; on a
+    ``torus`` (tileable output) distances wrap around the canvas, so samples by one edge see
+    those by the opposite edge.
 
     Shape: pos (N, 2) -> (N, K) long, K = min(k_max, N - 1).
     """
@@ -40,8 +45,11 @@ def neighborhoods(pos: torch.Tensor, radius: float, k_max: int, chunk: int = 204
     out = torch.full((n, k), -1, dtype=torch.long)
     if k == 0:
         return out
+    if torus is not None:
+        chunk = min(chunk, 512)  # (c, N, 2) offsets
     for s in range(0, n, chunk):
-        d = torch.cdist(pos[s : s + chunk], pos)  # (c, N)
+        a = pos[s : s + chunk]
+        d = torch.cdist(a, pos) if torus is None else torus.cdist(a, pos)  # (c, N)
         rows = torch.arange(s, min(s + chunk, n))
         d[torch.arange(len(rows)), rows] = float("inf")  # not its own neighbor
         dist, idx = torch.topk(d, k, dim=1, largest=False)  # (c, K) sorted ascending
@@ -66,9 +74,11 @@ class PairSpace:
     in_nbr: torch.Tensor  # (M, K)
     table: torch.Tensor  # (N + 1, M + 1) (w_f / 2) chi2, sentinels 0
     p: DistanceParams
+    torus: Torus | None = None  # tileable output: output offsets wrap around
 
 
-def pair_space(out_pos, out_nbr, in_pos, in_nbr, table, p: DistanceParams) -> PairSpace:
+def pair_space(out_pos, out_nbr, in_pos, in_nbr, table, p: DistanceParams,
+               torus: Torus | None = None) -> PairSpace:
     """Shape: out_pos (N, 2), out_nbr (N, K), in_pos (M, 2), in_nbr (M, K), table (N, M)."""
     far = out_pos.new_tensor([[_FAR, _FAR]])
     tab = torch.zeros(table.shape[0] + 1, table.shape[1] + 1, dtype=table.dtype)
@@ -77,7 +87,7 @@ def pair_space(out_pos, out_nbr, in_pos, in_nbr, table, p: DistanceParams) -> Pa
     if short > 0:  # every output row needs a column: pad with (outlier) sentinel columns
         in_nbr = torch.cat([in_nbr, in_nbr.new_full((in_nbr.shape[0], short), -1)], 1)
     return PairSpace(torch.cat([out_pos, far]), out_nbr, torch.cat([in_pos, -far]), in_nbr,
-                     tab, p)
+                     tab, p, torus)
 
 
 def _position_costs(sp: PairSpace, o: torch.Tensor, i: torch.Tensor):
@@ -85,7 +95,10 @@ def _position_costs(sp: PairSpace, o: torch.Tensor, i: torch.Tensor):
 
     Shape: o, i (B,) -> (B, K, K), nbrs (B, K) x2."""
     on, inn = sp.out_nbr[o], sp.in_nbr[i]  # (B, K), -1 == sentinel (last row)
-    rel_o = (sp.out_pos[on] - sp.out_pos[o][:, None]) / sp.p.delta  # (B, K, 2)
+    rel_o = sp.out_pos[on] - sp.out_pos[o][:, None]  # (B, K, 2)
+    if sp.torus is not None:  # padded slots (the far sentinel) stay far
+        rel_o = torch.where((on >= 0)[..., None], sp.torus.diff(rel_o), rel_o)
+    rel_o = rel_o / sp.p.delta
     rel_i = (sp.in_pos[inn] - sp.in_pos[i][:, None]) / sp.p.delta  # (B, K, 2)
     return torch.cdist(rel_o, rel_i), on, inn
 

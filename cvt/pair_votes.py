@@ -13,6 +13,7 @@ from dataclasses import dataclass
 import torch
 
 from cvt.search import Matches
+from cvt.torus import Torus
 
 
 @dataclass
@@ -41,7 +42,7 @@ class PairVotes:
 
 
 def pair_votes(m: Matches, out_pos: torch.Tensor, in_cluster: torch.Tensor,
-               in_z: torch.Tensor, max_dist: float) -> PairVotes:
+               in_z: torch.Tensor, max_dist: float, torus: Torus | None = None) -> PairVotes:
     """Count the votes of all matched neighborhoods on output pairs closer than ``max_dist``.
 
     Shape: m over N output samples, out_pos (N, 2), in_cluster / in_z (M,) -> PairVotes.
@@ -52,6 +53,8 @@ def pair_votes(m: Matches, out_pos: torch.Tensor, in_cluster: torch.Tensor,
     ok = (members >= 0) & (inputs >= 0)
     k1 = members.shape[1]
     p = out_pos[members.clamp_min(0)]  # (N, K+1, 2)
+    if torus is not None:  # each neighbourhood seen from its centre, across the seam
+        p = out_pos[:, None] + torus.diff(p - out_pos[:, None])
     pair = ok[:, :, None] & ok[:, None, :] & torch.ones(k1, k1, dtype=torch.bool).triu(1)
     pair &= torch.cdist(p, p) < max_dist  # (N, K+1, K+1) slot pairs to count
     o, j, k = torch.nonzero(pair, as_tuple=True)  # (V,) each

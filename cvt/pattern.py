@@ -4,8 +4,9 @@
    Everything else goes to the seed's synthesis (``method``, cvt.baselines).
 2. The canvas (cvt.canvas): fragments only where the border cuts them, nothing entirely off
    the canvas or the domain, each kind at the exemplar's density.
-3. ``tileable``: the result wraps around (cvt.tileable); the seed's method then runs on a
-   canvas ``TILE_MARGIN`` larger on every side and the window is taken from its interior.
+3. ``tileable``: the seed's method runs on a torus (cvt.torus: toroidal neighbourhoods,
+   search, assignment and clustering), the canvas repair wraps around too, and the result is
+   drawn periodically (cvt.tileable).
 
 The background (cvt.background) is drawn under it all by :func:`pattern_svg`.
 """
@@ -27,14 +28,15 @@ from cvt.canvas import (
     repair_density,
 )
 from cvt.companions import companion_kinds, drop_orphans
+from cvt.density import fragment_owners
 from cvt.domain import Domain
 from cvt.kinds import cut_mask, element_kinds
 from cvt.lattice import detect_lattice, lattice_copies
 from cvt.reconstruction import Placement
 from cvt.svg import Exemplar, to_svg
 from cvt.synthesis import SynthesisConfig, SynthesisResult
-
-TILE_MARGIN = 0.25  # extra border synthesized around a tileable output, in exemplar sizes
+from cvt.tileable import wrap_around, wrap_centres
+from cvt.torus import Torus
 
 
 @dataclass(frozen=True)
@@ -77,14 +79,16 @@ def synthesize_pattern(ex: Exemplar, size: tuple[float, float], cfg: SynthesisCo
     placed, res, lat = _arrange(ex, size, cfg, method, opts, boxes, cut, kinds, notes,
                                 on_iteration)
     inside = opts.domain.contains if opts.domain is not None else None
+    torus = Torus.of(out_box) if opts.tileable else None
+    if torus is not None:  # no border to cut fragments on a torus
+        placed = wrap_centres([p for p in placed if not cut[p[0]]], boxes, out_box)
     placed = keep_on_canvas(placed, boxes, cut, out_box, inside)
     if opts.density and (lat is None or opts.domain is not None or opts.tileable):
         area = opts.domain.area if opts.domain is not None else size[0] * size[1]
         groups = composites(boxes, cut) if opts.kinds is None else [[e] for e in range(len(kinds))]
-        placed = _repair(placed, ex, boxes, cut, kinds, groups, out_box, area, cfg.seed, inside)
+        placed = _repair(placed, ex, boxes, cut, kinds, groups, out_box, area, cfg.seed, inside,
+                         torus)
     if opts.tileable:
-        from cvt.tileable import wrap_around
-
         placed = wrap_around(placed, boxes, out_box)
     return Pattern(placed, size, notes, res, lat)
 
@@ -103,25 +107,25 @@ def _arrange(ex, size, cfg, method, opts, boxes, cut, kinds, notes, on_iteration
                      f"{lat.explained:.0%} of the exemplar")
         return lattice_copies(lat, boxes, (vx, vy, vx + size[0], vy + size[1])), None, lat
     if (~cut).sum() >= 2:
-        # A tileable output is cut from the interior of a larger one: the canvas border of a
-        # synthesis is packed differently, and the wrap-around would bring it to the seam.
-        m = TILE_MARGIN * ex.size if opts.tileable else 0.0
-        res = run_method(method, ex, (size[0] + 2 * m, size[1] + 2 * m), cfg, on_iteration)
-        notes.append(f"no lattice: {method} synthesis")
-        return [(e, dx - m, dy - m) for e, dx, dy in _placed(res)], res, None
+        cfg = dataclasses.replace(cfg, tileable=opts.tileable)
+        res = run_method(method, ex, size, cfg, on_iteration)
+        notes.append(f"no lattice: {method} synthesis" + (" on a torus" if opts.tileable else ""))
+        return _placed(res), res, None
     notes.append("fewer than two whole elements: placed at the exemplar's density")
     return [], None, None
 
 
-def _repair(placed, ex, boxes, cut, kinds, groups, out_box, area, seed, inside):
-    """No clashes the exemplar never shows, companions paired, each kind at its density."""
-    rates = kind_rates(boxes, kinds, cut, ex.viewbox)
+def _repair(placed, ex, boxes, cut, kinds, groups, out_box, area, seed, inside, torus=None):
+    """No clashes the exemplar never shows, companions paired, each kind at its density (on a
+    ``torus``: across the seam too)."""
+    rates = kind_rates(boxes, kinds, cut, ex.viewbox,
+                       fragment_owners(ex.elements, kinds, cut, ex.viewbox))
     pairs = companion_kinds(boxes, kinds, cut)
-    placed = drop_overlaps(placed, boxes, kinds, overlap_limits(boxes, kinds, cut))
+    placed = drop_overlaps(placed, boxes, kinds, overlap_limits(boxes, kinds, cut), torus)
     rng = np.random.default_rng(seed)
-    for _ in range(2):  # thinning can orphan a companion: drop it and repair again
-        placed = drop_orphans(placed, boxes, kinds, pairs)
-        placed = repair_density(placed, boxes, kinds, rates, groups, out_box, area, rng, inside)
+    placed = drop_orphans(placed, boxes, kinds, pairs, torus)  # re-added whole by the repair
+    placed = repair_density(placed, boxes, kinds, rates, groups, out_box, area, rng, inside,
+                            torus, pairs)
     return placed
 
 

@@ -18,6 +18,7 @@ from dataclasses import dataclass
 import torch
 
 from cvt.neighborhood import PairSpace, distance_batched, pruned_lower_bounds
+from cvt.torus import offsets
 
 
 @dataclass
@@ -73,7 +74,8 @@ class NearestGrid:
         return self.cell[i * self.ny + j]
 
 
-def _candidates(field, out_pos, out_nbr, in_pos, grid, window0, params, delta, gen):
+def _candidates(field, out_pos, out_nbr, in_pos, grid, window0, params, delta, gen,
+                torus=None):
     """Propagated and random-search candidate input centers. Shape: -> (N, C) long."""
     n = field.shape[0]
     cands = []
@@ -81,7 +83,7 @@ def _candidates(field, out_pos, out_nbr, in_pos, grid, window0, params, delta, g
     if k > 0:
         t = out_nbr[:, :k]  # (N, k) neighbors whose match we borrow
         t0 = t.clamp_min(0)
-        target = in_pos[field[t0]] + (out_pos[:, None] - out_pos[t0])  # (N, k, 2)
+        target = in_pos[field[t0]] + offsets(out_pos[:, None] - out_pos[t0], torus)  # (N, k, 2)
         near = grid(target.reshape(-1, 2)).view(n, k)
         cands.append(torch.where(t >= 0, near, field[:, None]))
     if params.n_random > 0:
@@ -129,7 +131,7 @@ def patchmatch(sp: PairSpace, grid: NearestGrid, field: torch.Tensor, params: Se
     field = field.clone()
     for _ in range(params.passes):
         cand = _candidates(field, out_pos, sp.out_nbr, in_pos, grid, window0, params,
-                           sp.p.delta, gen)  # (N, C)
+                           sp.p.delta, gen, sp.torus)  # (N, C)
         fresh = _fresh(cand, field)
         oo, cc = torch.nonzero(fresh, as_tuple=True)
         lb = torch.full(cand.shape, torch.inf, dtype=best.dtype)

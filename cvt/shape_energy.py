@@ -17,6 +17,8 @@ import torch
 from scipy.optimize import linear_sum_assignment
 from scipy.spatial.distance import cdist
 
+from cvt.torus import Torus
+
 
 @dataclass(frozen=True)
 class ShapeFit:
@@ -42,8 +44,9 @@ class ShapeEnergy:
     """
 
     def __init__(self, out_pos: torch.Tensor, mu: torch.Tensor, in_pos: torch.Tensor,
-                 in_cluster: torch.Tensor, delta: float):
+                 in_cluster: torch.Tensor, delta: float, torus: Torus | None = None):
         self.o_pos = out_pos.double().numpy()
+        self.torus = torus  # tileable output: a cluster may lie across the seam
         self.i_pos = in_pos.double().numpy()
         self.mu = mu.numpy()
         i_cl = in_cluster.numpy()
@@ -77,6 +80,9 @@ class ShapeEnergy:
 
     def _fit(self, mem: np.ndarray) -> ShapeFit:
         src = self.src[mem]
+        o_pos = self.o_pos[mem]  # (A, 2), next to each other on a torus
+        if self.torus is not None:
+            o_pos = o_pos[0] + self.torus.diff(o_pos - o_pos[0])
         cands = np.unique(src)
         sizes = self.size[cands]
         best = ShapeFit(np.inf, -1, (0.0, 0.0))
@@ -84,9 +90,9 @@ class ShapeEnergy:
             if abs(sizes[k] - len(mem)) >= best.energy:  # seed 000 eq. 16's count term alone loses
                 break
             ci = int(cands[k])
-            pairs = mem[src == ci]
-            shift = (self.o_pos[pairs] - self.i_pos[self.mu[pairs]]).mean(0)  # seed 000 eq. 17
-            d = shape_distance(self.o_pos[mem], self.i_pos[self.members[ci]] + shift, self.eps)
+            pairs = src == ci
+            shift = (o_pos[pairs] - self.i_pos[self.mu[mem[pairs]]]).mean(0)  # seed 000 eq. 17
+            d = shape_distance(o_pos, self.i_pos[self.members[ci]] + shift, self.eps)
             if d < best.energy:
                 best = ShapeFit(d, ci, (float(shift[0]), float(shift[1])))
         return best

@@ -29,6 +29,7 @@ from cvt.shape_context import chi2_table, shape_contexts
 from cvt.shape_energy import ShapeEnergy
 from cvt.spectral import spectral_clusters
 from cvt.svg import Exemplar, to_svg
+from cvt.torus import Torus, offsets
 
 STEPS = ("init", "search", "assignment", "clustering", "reconstruction")
 CLUSTERINGS = ("greedy", "spectral", "none")
@@ -69,6 +70,9 @@ class SynthesisConfig:
     filter_shapes: bool = True  # drop elements with E'_s(C_o) > |C_o| (sec. 6.6)
     seed: int = 0
     threads: int = 1  # torch threads; more only pays off on an idle machine with big outputs
+    # The output canvas is a torus (cvt.torus): neighbourhoods, search, assignment,
+    # clustering and depth wrap around, so the result tiles seamlessly.
+    tileable: bool = False
 
 
 @dataclass
@@ -147,12 +151,13 @@ def _synthesize(exemplar: Exemplar, size, cfg: SynthesisConfig, on_iteration) ->
         out = patch_init(res.inputs[0], in_box, out_box, 2 * levels[0].radius, gen)
     _tick(res, 0, "init", t)
 
+    torus = Torus.of(out_box) if cfg.tileable else None
     for li, lv in enumerate(levels):
         inp = res.inputs[li]
         out, m, votes = _run_level(li, lv, inp, out, in_box, out_box, cfg, gen, res,
                                    on_iteration, app)
         t = time.perf_counter()
-        shape = ShapeEnergy(out.pos, m.center, inp.pos, inp.cluster, lv.delta)
+        shape = ShapeEnergy(out.pos, m.center, inp.pos, inp.cluster, lv.delta, torus)
         res.placements = reconstruct(out, inp, m, lv.delta, shape)
         if cfg.filter_shapes:
             res.placements = filter_placements(res.placements)
@@ -161,7 +166,7 @@ def _synthesize(exemplar: Exemplar, size, cfg: SynthesisConfig, on_iteration) ->
         res.samples_per_level.append(len(out))
         last = li + 1 == len(levels) or not res.placements
         if last and cfg.depth:
-            res.placements = depth_order(res.placements, out, m, inp, lv.delta, votes)
+            res.placements = depth_order(res.placements, out, m, inp, lv.delta, votes, torus)
         if not last:
             out = upsample(res.placements, res.inputs[li + 1])
         _tick(res, li, "reconstruction", t)
@@ -177,7 +182,8 @@ def _tick(res: SynthesisResult, level: int, step: str, start: float) -> None:
 
 
 def depth_order(placements: list[Placement], out: Samples, m: Matches, inp: Samples,
-                delta: float, votes: PairVotes | None = None) -> list[Placement]:
+                delta: float, votes: PairVotes | None = None,
+                torus: Torus | None = None) -> list[Placement]:
     """Placements sorted bottom to top by Order-By-Preferences over f_C (seed 000 eqs. 5-8).
 
     Clusters without preferences keep their input z order relative to each other.
@@ -185,9 +191,9 @@ def depth_order(placements: list[Placement], out: Samples, m: Matches, inp: Samp
     if len(placements) < 2:
         return placements
     if votes is None:
-        votes = pair_votes(m, out.pos, inp.cluster, inp.z, 2 * delta)
+        votes = pair_votes(m, out.pos, inp.cluster, inp.z, 2 * delta, torus)
     ids, local = torch.unique(out.cluster, return_inverse=True)
-    pref = cluster_preferences(votes, out.pos, local, len(ids), delta)
+    pref = cluster_preferences(votes, out.pos, local, len(ids), delta, torus)
     row = {int(c): k for k, c in enumerate(ids.tolist())}
     rows = [row[p.cluster] for p in placements]
     sub = pref[np.ix_(rows, rows)]
@@ -234,6 +240,7 @@ def nearest_neighborhoods(out: Samples, inp: Samples, in_box, lv: Level, cfg: Sy
 def _run_level(li: int, lv: Level, inp: Samples, out: Samples, in_box, out_box,
                cfg: SynthesisConfig, gen, res: SynthesisResult, on_iteration, app=None):
     t = time.perf_counter()
+    torus = Torus.of(out_box) if cfg.tileable else None
     dist = DistanceParams(lv.delta, cfg.w_f, cfg.c_out)
     in_nbr, valid, grid, window0 = _input_index(inp, in_box, lv, cfg)
     table = feature_table(out, inp, app, cfg)  # (N_out, N_in), rows refreshed on cluster changes
@@ -242,28 +249,31 @@ def _run_level(li: int, lv: Level, inp: Samples, out: Samples, in_box, out_box,
     m = votes = None
     for it in range(cfg.iterations):
         t = time.perf_counter()
-        out_nbr = neighborhoods(out.pos, lv.radius, cfg.k_max)
+        if torus is not None:
+            out = out.with_(pos=torus.gather(out.pos, out.cluster))
+        out_nbr = neighborhoods(out.pos, lv.radius, cfg.k_max, torus=torus)
         params = SearchParams(passes=cfg.first_passes if it == 0 else cfg.passes)
-        sp = pair_space(out.pos, out_nbr, inp.pos, in_nbr, table, dist)
+        sp = pair_space(out.pos, out_nbr, inp.pos, in_nbr, table, dist, torus)
         m = patchmatch(sp, grid, field_, params, window0, gen)
         _tick(res, li, "search", t)
         t = time.perf_counter()
-        new_pos = assign_positions(out.pos, m, inp.pos, huber=cfg.huber * lv.delta)
+        new_pos = assign_positions(out.pos, m, inp.pos, huber=cfg.huber * lv.delta, torus=torus)
         if cfg.backtrack:
-            new_pos = _backtrack(out.pos, new_pos, m, inp, in_nbr, table, dist, lv, cfg)
+            new_pos = _backtrack(out.pos, new_pos, m, inp, in_nbr, table, dist, lv, cfg, torus)
         out = out.with_(pos=new_pos)
         _tick(res, li, "assignment", t)
         t = time.perf_counter()
         if cfg.clustering != "none":
             votes = pair_votes(m, out.pos, inp.cluster, inp.z,
-                               max(cfg.cluster.lam, 2.0) * lv.delta)
-            out, table = _cluster(out, m, inp, votes, table, lv, cfg, gen, res, li, it, app)
+                               max(cfg.cluster.lam, 2.0) * lv.delta, torus)
+            out, table = _cluster(out, m, inp, votes, table, lv, cfg, gen, res, li, it, app,
+                                  torus)
         _tick(res, li, "clustering", t)
         t = time.perf_counter()
         field_ = m.center
         if cfg.add_samples and it + 1 < cfg.iterations:
             new = add_missing(out, m, inp, in_nbr, lv.delta, lv.radius, out_box,
-                              min_new=cfg.new_cluster_share)
+                              min_new=cfg.new_cluster_share, torus=torus)
             if len(new):
                 out = out.cat(new)
                 table = torch.cat([table, feature_table(new, inp, app, cfg)])
@@ -272,19 +282,23 @@ def _run_level(li: int, lv: Level, inp: Samples, out: Samples, in_box, out_box,
         res.energies.append((li, it, m.energy))
         if on_iteration is not None:
             on_iteration(LevelState(li, it, out, m, m.energy))
+    if torus is not None:  # the clustering step may have joined samples across the seam
+        out = out.with_(pos=torus.gather(out.pos, out.cluster))
     return out, m, votes  # no samples are added after the last search, so m covers all of out
 
 
 def _cluster(out: Samples, m: Matches, inp: Samples, votes: PairVotes, table, lv: Level,
-             cfg: SynthesisConfig, gen, res: SynthesisResult, li: int, it: int, app=None):
+             cfg: SynthesisConfig, gen, res: SynthesisResult, li: int, it: int, app=None,
+             torus: Torus | None = None):
     """One clustering step; shape contexts (and their chi2 rows) of changed clusters are
     recomputed. Returns the new samples and chi2 table."""
     if cfg.clustering == "greedy":
-        shape = ShapeEnergy(out.pos, m.center, inp.pos, inp.cluster, lv.delta)
+        shape = ShapeEnergy(out.pos, m.center, inp.pos, inp.cluster, lv.delta, torus)
         labels, stats = cluster_step(out.pos, out.cluster, votes, shape, lv.delta, cfg.cluster)
         res.clustering.append((li, it, stats))
     else:  # sec. 7.2 baseline: k = |O| / |I| * |{C_i}| clusters
-        near = (out.pos[votes.a] - out.pos[votes.b]).norm(dim=1) < cfg.cluster.lam * lv.delta
+        near = offsets(out.pos[votes.a] - out.pos[votes.b], torus).norm(dim=1) < (
+            cfg.cluster.lam * lv.delta)
         v = votes.select(near)
         k = round(len(out) / len(inp) * len(inp.cluster.unique()))
         seed = int(torch.randint(2**31 - 1, (1,), generator=gen))
@@ -292,6 +306,8 @@ def _cluster(out: Samples, m: Matches, inp: Samples, votes: PairVotes, table, lv
                                                     len(out), max(k, 1), seed))
     changed = changed_samples(out.cluster, labels)
     out = out.with_(cluster=labels)
+    if torus is not None:  # a cluster joined across the seam: its samples side by side
+        out = out.with_(pos=torus.gather(out.pos, labels))
     if changed.any():
         idx = torch.nonzero(changed).flatten()
         feat = out.feat.clone()
@@ -302,14 +318,17 @@ def _cluster(out: Samples, m: Matches, inp: Samples, votes: PairVotes, table, lv
     return out, table
 
 
-def _energy_at(pos, m: Matches, inp: Samples, in_nbr, table, dist, lv: Level, cfg) -> float:
+def _energy_at(pos, m: Matches, inp: Samples, in_nbr, table, dist, lv: Level, cfg,
+               torus=None) -> float:
     """Seed 000 eq. 4 (mean) at positions ``pos`` for the fixed field ``m.center``."""
-    sp = pair_space(pos, neighborhoods(pos, lv.radius, cfg.k_max), inp.pos, in_nbr, table, dist)
+    sp = pair_space(pos, neighborhoods(pos, lv.radius, cfg.k_max, torus=torus), inp.pos,
+                    in_nbr, table, dist, torus)
     d, _ = distance_batched(sp, torch.arange(pos.shape[0]), m.center)
     return float(d.mean())
 
 
-def _backtrack(old, new, m: Matches, inp, in_nbr, table, dist, lv, cfg) -> torch.Tensor:
+def _backtrack(old, new, m: Matches, inp, in_nbr, table, dist, lv, cfg,
+               torus=None) -> torch.Tensor:
     """Take the least-squares step, or half of it, or none: whichever keeps seed 000 eq. 4 from
     rising.
 
@@ -318,7 +337,7 @@ def _backtrack(old, new, m: Matches, inp, in_nbr, table, dist, lv, cfg) -> torch
     """
     for step in (1.0, 0.5):
         pos = old + step * (new - old)
-        if _energy_at(pos, m, inp, in_nbr, table, dist, lv, cfg) <= m.energy + 1e-9:
+        if _energy_at(pos, m, inp, in_nbr, table, dist, lv, cfg, torus) <= m.energy + 1e-9:
             return pos
     return old
 

@@ -63,7 +63,7 @@ def test_companions_without_their_host_are_orphans():
                       [40, 0, 50, 10.0]])  # two hearts with a butterfly, one without
     kinds = np.array([0, 1, 0, 1, 0])
     pairs = companion_kinds(boxes, kinds, np.zeros(5, bool))
-    assert pairs == {1: 0}  # butterflies need a heart, hearts may be alone
+    assert pairs == {1: {0}}  # butterflies need a heart, hearts may be alone
     placed = [(0, 0, 0), (1, 0, 0), (1, 50, 50), (0, 80, 0)]
     assert drop_orphans(placed, boxes, kinds, pairs) == [(0, 0, 0), (1, 0, 0), (0, 80, 0)]
 
@@ -80,3 +80,42 @@ def test_wrap_around_draws_crossing_elements_on_both_sides_once_per_orbit():
         on = (b[:, 2] > 0) & (b[:, 0] < 40) & (b[:, 3] > 0) & (b[:, 1] < 40)
         return {tuple(np.round(x, 6)) for x in b[on] % 40}
     assert seen(np.array([40, 0, 40, 0])) | seen(0) == seen(0)
+
+
+def test_flower_needs_both_leaf_kinds_and_its_leaves_go_with_it():
+    # a flower (kind 0) with a leaf of kind 1 and one of kind 2, in the exemplar
+    boxes = np.array([[0, 0, 10, 10], [8, 0, 14, 6], [-4, 4, 2, 10.0]])
+    kinds = np.array([0, 1, 2])
+    pairs = companion_kinds(boxes, kinds, np.zeros(3, bool))
+    assert pairs == {0: {1, 2}, 1: {0}, 2: {0}}
+    whole = [(0, 0, 0), (1, 0, 0), (2, 0, 0)]
+    lacking = [(0, 50, 0), (1, 50, 0)]  # no kind-2 leaf: the flower goes, then its leaf
+    assert drop_orphans(whole + lacking, boxes, kinds, pairs) == whole
+
+
+def test_thinning_never_breaks_a_pair():
+    boxes = np.array([[0, 0, 10, 10], [2, 2, 6, 6.0]])  # a heart with its butterfly
+    kinds = np.array([0, 1])
+    pairs = companion_kinds(boxes, kinds, np.zeros(2, bool))
+    rates = {0: 2 / 2500, 1: 2 / 2500}
+    # four hearts, each with its butterfly: hearts and butterflies are 2x too many
+    placed = [(e, dx, 0.0) for dx in (0, 12, 24, 36) for e in (0, 1)]
+    rng = np.random.default_rng(0)
+    out = repair_density(placed, boxes, kinds, rates, [[0, 1]], (0, 0, 50, 50), 2500, rng,
+                         companions=pairs)
+    assert drop_orphans(out, boxes, kinds, pairs) == out  # nobody left alone
+
+
+def test_pairs_settle_between_the_rates_of_their_kinds():
+    """The border lets an exemplar show 10 hearts and 8 butterflies that sit on them: pairs
+    go in and out whole and settle where neither kind is off by more than it must be."""
+    boxes = np.array([[0, 0, 4, 4], [1, 1, 3, 3.0]])
+    kinds = np.array([0, 1])
+    pairs = companion_kinds(boxes, kinds, np.zeros(2, bool))
+    rates = {0: 10 / 2500, 1: 8 / 2500}
+    placed = [(e, dx, dy) for dx in range(2, 50, 10) for dy in (2, 20, 38) for e in (0, 1)]
+    rng = np.random.default_rng(0)
+    out = repair_density(placed, boxes, kinds, rates, [[0, 1]], (0, 0, 50, 50), 2500, rng,
+                         companions=pairs)
+    n = np.bincount([kinds[e] for e, _, _ in out], minlength=2)
+    assert n[0] == n[1] == 9  # 15 pairs thinned to 9: -10 % and +12.5 %
