@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import argparse
 import sys
-from dataclasses import replace
 from pathlib import Path
 
 import torch
@@ -27,7 +26,7 @@ from make_gallery import strip  # noqa: E402
 from neuraltex.edit.animation import animate  # noqa: E402
 from neuraltex.edit.interpolate import interpolate  # noqa: E402
 from neuraltex.edit.transfer import transfer  # noqa: E402
-from neuraltex.edit.vary import on_unit_sphere, vary  # noqa: E402
+from neuraltex.edit.vary import vary  # noqa: E402
 from neuraltex.fit import FitSettings, fit_texture  # noqa: E402
 from neuraltex.imageio import load_image, save_frames, save_pil, stack_rows  # noqa: E402
 from neuraltex.model import DEFAULT_MODEL, load_model  # noqa: E402
@@ -84,10 +83,8 @@ def row(model, name, image, t, dec, groups, other_name, u, other) -> list:
     tiles.append((f"+ {other_name} look", app_dec.decode(transfer(structure, app, "mean", 0),
                                                            size)))
     mid_dec, (a, b) = combine(model, [(t, dec), (u, other)], t=0.5)
-    mid = interpolate(a, b, 0.5, 0)
-    mid = replace(mid, f=on_unit_sphere(mid.f, plain - COLOUR))
-    tiles.append((f"<-> {other_name} 0.5", mid_dec.decode(mid, size)))
-    tiles.append(("vary 0.3", dec.decode(vary(t, 0.3, 1.0, unit=plain - COLOUR), size)))
+    tiles.append((f"<-> {other_name} 0.5", mid_dec.decode(interpolate(a, b, 0.5, 0), size)))
+    tiles.append(("vary 0.3", dec.decode(vary(t, 0.3, 1.0, keep=plain - COLOUR), size)))
     return tiles
 
 

@@ -142,12 +142,11 @@ def cmd_interpolate(args: argparse.Namespace) -> int:
 
     (check_sequence_output if args.frames else check_output_path)(args.output)
     model = _load(args)
-    unit = _on_sphere(model)
     ta, tb = _texture(args, model, args.image), _texture(args, model, args.other)
     seed, short = args.seed or 0, ta.short
     if args.frames:
         _, (a, b) = common.decoder_for(model, ta, tb)
-        frames = [unit(f) for f in interpolate_frames(a, b, args.frames, seed)]
+        frames = interpolate_frames(a, b, args.frames, seed)
         ts = [i / (args.frames - 1) for i in range(args.frames)]
         images = [_decode(args, common.decoder_for(model, ta, tb, t=t)[0], f, short)
                   for f, t in _progress("frames")(list(zip(frames, ts, strict=True)))]
@@ -157,18 +156,8 @@ def cmd_interpolate(args: argparse.Namespace) -> int:
         ta, tb = (_grown(args, model, t) for t in (ta, tb))  # textons synthesized to fill it
     decoder, (a, b) = common.decoder_for(model, ta, tb, t=0.5 if args.spatial else args.t)
     out = interpolate_spatially(a, b, seed) if args.spatial else interpolate(a, b, args.t, seed)
-    common.save(_decode(args, decoder, unit(out), short), args.output)
+    common.save(_decode(args, decoder, out, short), args.output)
     return 0
-
-
-def _on_sphere(model):
-    """Textons -> textons with their appearance features f_a (the model's C_a leading channels)
-    back on the unit sphere after a blend (neuraltex.edit.vary.on_unit_sphere)."""
-    from dataclasses import replace
-
-    from neuraltex.edit.vary import on_unit_sphere
-
-    return lambda t: replace(t, f=on_unit_sphere(t.f, model.generator.feature_channels - 2))
 
 
 def _grown(args: argparse.Namespace, model, tex: common.Texture) -> common.Texture:
@@ -195,8 +184,9 @@ def cmd_vary(args: argparse.Namespace) -> int:
     check_output_path(args.output)
     model = _load(args)
     tex = _texture(args, model, args.image)
+    tuned = tex.decoder is not None  # a texture file: vary d and sprites, keep f_a
     out = vary(tex.textons, args.appearance, args.shape,
-               unit=model.generator.feature_channels - 2)  # f_a: C_a unit channels
+               keep=model.generator.feature_channels - 2 if tuned else 0)
     common.save(_decode(args, tex.decoder or model, out, tex.short), args.output)
     return 0
 

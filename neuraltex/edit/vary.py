@@ -10,7 +10,6 @@ from __future__ import annotations
 from dataclasses import replace
 
 import torch
-import torch.nn.functional as F
 from torch import Tensor
 
 from neuraltex.textons import Textons
@@ -37,23 +36,17 @@ def lower_triangular_power(W: Tensor, lam: float) -> Tensor:
     return torch.stack([torch.stack([al, zero], -1), torch.stack([c * s, dl], -1)], -2)
 
 
-def on_unit_sphere(f: Tensor, unit: int) -> Tensor:
-    """f (..., C) with its first ``unit`` channels, the appearance features f_a (unit vectors,
-    eq. 4.6), normalized again after a blend of features shrank them (0: f unchanged)."""
-    if not unit:
-        return f
-    return torch.cat([F.normalize(f[..., :unit], dim=-1, eps=1e-12), f[..., unit:]], dim=-1)
-
-
 def vary(textons: Textons, appearance: float = 1.0, shape: float = 1.0,
-         unit: int = 0) -> Textons:
+         keep: int = 0) -> Textons:
     """Scale the variation of appearance features (lambda_f) and shapes (lambda_U). The first
-    ``unit`` channels of f are put back on the unit sphere after eq. 4.27 (the appearance
-    features f_a are unit vectors, eq. 4.6; a shrunk one decodes darker): pass C_a for the
-    decoder's textons, 0 to keep eq. 4.27 as it is."""
+    ``keep`` channels of f are left as they are: pass C_a for the textons of a tuned decoder
+    (neuraltex.fit), whose G was tuned to render each texton's own code f_a, so that a code
+    between codes decodes to noise; their appearance then varies through the channels that
+    add up in pixels, the colour offsets d and the detail sprites."""
     t = textons
     f_bar = effective_mean(t.f, t.delta)
-    f = on_unit_sphere(f_bar + appearance * (t.f - f_bar), unit)  # eq. 4.27
+    f = f_bar + appearance * (t.f - f_bar)  # eq. 4.27
+    f = torch.cat([t.f[..., :keep], f[..., keep:]], dim=-1)
     cov = t.cov
     if shape != 1.0:
         U_bar = effective_mean(t.cov, t.delta)  # (B, 1, 2, 2)
