@@ -5,9 +5,11 @@ A Gaussian (mu, U) stands for the uniform region with the same moments (seed 003
 element's shape, so the engine samples it like any filled SVG shape (seed 000 sec. 4) and
 arranges, clusters and reconstructs it unchanged; the per-element appearance attributes A(s)
 (seed 000 sec. 4.2) carry what the Gaussian's position and shape do not (its appearance
-feature, size and kind). An element's ``index`` is its row in the arrays given, so a placement
-(element, dx, dy) names the Gaussian it copies. Each element is written as an ``<ellipse>``
-(``data-gaussian`` = its row), so the same arrangement also renders as SVG.
+feature, size and kind). An element is one Gaussian, or a group of them (the textons of one
+object, :mod:`neuraltex.texton_groups`) sampled as one element of several shapes; an element's
+``index`` is its group's position, so a placement (element, dx, dy) names the Gaussians it
+copies. Each Gaussian is written as an ``<ellipse>`` (``data-gaussian`` = its row; a group as a
+``<g>`` of them), so the same arrangement also renders as SVG.
 """
 
 from __future__ import annotations
@@ -44,19 +46,27 @@ def _node(index: int, mu: np.ndarray, cov: np.ndarray, fill: str) -> ET.Element:
 
 
 def gaussian_exemplar(mu: np.ndarray, cov: np.ndarray, appearance: np.ndarray,
-                      canvas: tuple[float, float], fills: list[str] | None = None) -> Exemplar:
+                      canvas: tuple[float, float], fills: list[str] | None = None,
+                      groups: list[list[int]] | None = None) -> Exemplar:
     """An exemplar of Gaussian elements on the canvas [0, w] x [0, h], bottom to top in the
-    order given. Shape: mu (E, 2), cov (E, 2, 2), appearance (E, D); ``fills`` are the
+    order given; ``groups`` (default: one Gaussian each) are the rows making each element.
+    Shape: mu (E, 2), cov (E, 2, 2), appearance (len(groups), D); ``fills`` are the
     ellipses' SVG colours (default grey)."""
     mu, cov = np.asarray(mu, np.float64), np.asarray(cov, np.float64)
     if mu.ndim != 2 or mu.shape[1] != 2 or cov.shape != (len(mu), 2, 2):
         raise ValueError(f"need mu (E, 2) and cov (E, 2, 2), got {mu.shape}, {cov.shape}")
-    if len(appearance) != len(mu):
-        raise ValueError(f"appearance has {len(appearance)} rows for {len(mu)} Gaussians")
+    groups = [[i] for i in range(len(mu))] if groups is None else groups
+    if len(appearance) != len(groups):
+        raise ValueError(f"appearance has {len(appearance)} rows for {len(groups)} elements")
     fills = fills or ["#808080"] * len(mu)
-    elements = [Element(i, _node(i, mu[i], cov[i], fills[i]),
-                        [Shape([ellipse_ring(mu[i], cov[i])], [True], True, 0.0)])
-                for i in range(len(mu))]
+    elements = []
+    for k, rows in enumerate(groups):
+        nodes = [_node(i, mu[i], cov[i], fills[i]) for i in rows]
+        node = nodes[0] if len(nodes) == 1 else ET.Element(f"{{{SVG_NS}}}g")
+        if len(nodes) > 1:
+            node.extend(nodes)
+        elements.append(Element(k, node, [Shape([ellipse_ring(mu[i], cov[i])], [True], True,
+                                                0.0) for i in rows]))
     w, h = canvas
     return Exemplar(elements, (0.0, 0.0, float(w), float(h)),
                     appearance=np.asarray(appearance, np.float64),

@@ -35,6 +35,7 @@ from neuraltex.texton_synthesis import (  # noqa: E402
     decode_arranged,
     layers,
     place,
+    steady_background,
     synthesize_texture,
 )
 
@@ -54,13 +55,16 @@ def texture_file(image: Path, cache: Path, steps: int) -> Path:
     return out
 
 
-def outputs(model, tex, image: np.ndarray, size, seed: int) -> tuple[dict, float]:
-    """({method: picture (H, W, 3)}, seconds of ours) at ``size`` = (H, W)."""
+def outputs(model, tex, image: np.ndarray, size, seed: int) -> tuple[dict, float, str]:
+    """({method: picture (H, W, 3)}, seconds of ours, what ours arranged: "groups" or
+    "alone") at ``size`` = (H, W). Random placement gets the same steady background layer."""
     textons, decoder = tex.textons, tex.decoder
     t = time.perf_counter()
-    ours, _ = synthesize_texture(decoder, textons, tex.short, size, ArrangeSettings(seed=seed))
+    ours, arr = synthesize_texture(decoder, textons, tex.short, size, ArrangeSettings(seed=seed))
     seconds = time.perf_counter() - t
-    rows, _, back = layers(textons, channels=decoder.generator.feature_channels - 2)
+    plain = decoder.generator.feature_channels - 2
+    rows, _, back = layers(textons, channels=plain)
+    textons = steady_background(textons, back, plain, tex.short, decoder.cutoff)
     canvas = (size[1] / tex.short, size[0] / tex.short)
     placed = base.random_placement(textons, rows, back, size, tex.short, seed)
     rand = decode_arranged(decoder, place(textons, rows, placed, back, canvas), size,
@@ -70,7 +74,8 @@ def outputs(model, tex, image: np.ndarray, size, seed: int) -> tuple[dict, float
     recon = decode(decoder, textons, image.shape[:2])[0]  # the input size: a reference only
     pics = {"ours": ours, "tiling": base.tiling(image, size), "random": rand,
             "quilting": base.quilting(image, size, seed), "recon": recon}
-    return {k: _hwc(v) for k, v in pics.items()}, seconds
+    kept = "groups" if max(len(g) for g in arr.groups) > 1 else "alone"
+    return {k: _hwc(v) for k, v in pics.items()}, seconds, kept
 
 
 def _hwc(x) -> np.ndarray:
@@ -93,11 +98,11 @@ def tileable_seam(tex, image: np.ndarray, size, seed: int) -> dict:
             "tiling_seam": base.seam(base.tiling(image, size))}
 
 
-def row_text(name: str, size, sc: dict, seconds: float, rep_in: float) -> str:
+def row_text(name: str, size, sc: dict, seconds: float, rep_in: float, kept: str) -> str:
     cells = " ".join(f"{sc[m]['swd']:7.1f} {sc[m]['gram']:5.3f}" for m in METHODS)
     return (f"{name:12s} {size[0]}x{size[1]:<4d} {cells}   rep in/tile/ours/quilt {rep_in:.2f}/"
             f"{sc['tiling']['rep']:.2f}/{sc['ours']['rep']:.2f}/{sc['quilting']['rep']:.2f}"
-            f"  {seconds:5.1f} s")
+            f"  {seconds:5.1f} s  {kept:6s}")
 
 
 def summary(results: list[dict]) -> list[str]:
@@ -173,13 +178,13 @@ def main() -> None:
         image = load_image(path).permute(1, 2, 0).numpy()
         rep_in = base.repetition(image)
         for k, size in enumerate(sizes):
-            pics, seconds = outputs(model, tex, image, size, args.seed)
+            pics, seconds, kept = outputs(model, tex, image, size, args.seed)
             r = {"name": name, "size": size, "sc": scores(image, pics), "seconds": seconds,
                  "rep_in": rep_in}
             if args.tileable and k == 0:
                 r["tile"] = tileable_seam(tex, image, size, args.seed)
             results.append(r)
-            print(row_text(name, size, r["sc"], seconds, rep_in)
+            print(row_text(name, size, r["sc"], seconds, rep_in, kept)
                   + (f"  seam {r['tile']['seam']:.2f} swd wrap/in {r['tile']['seam_swd']:.1f}/"
                      f"{r['tile']['inner_swd']:.1f}" if "tile" in r else ""), flush=True)
             if k == 0 and name in GALLERY:

@@ -12,7 +12,14 @@ from PIL import Image
 from cvt.gaussians import LEVEL, ellipse_ring, gaussian_exemplar
 from neuraltex.cli import main
 from neuraltex.data.generator import generate
-from neuraltex.texton_synthesis import ArrangeSettings, arrange, decode_arranged, periodic
+from neuraltex.texton_synthesis import (
+    ArrangeSettings,
+    arrange,
+    coverage,
+    decode_arranged,
+    periodic,
+    steady_background,
+)
 from tests.conftest import make_textons
 
 pytestmark = pytest.mark.usefixtures("one_thread")
@@ -112,12 +119,39 @@ def test_background_covers_the_output_and_fields_travel_with_their_texton():
     o = opacity_maps(out, (30, 60), window=(0, 0, 3.0, 1.5), composite=False)[0, 0]
     assert float(o.min()) > 0.99  # the background layer is opaque over the whole canvas
     assert int(out.order[0, 0]) == int(out.order[0].min())  # and behind every element
-    src = torch.tensor([arr.rows[p[0]] for p in arr.placements])
+    each = [(e, dx, dy) for g, dx, dy in arr.placements for e in arr.groups[g]]  # group -> textons
+    src = torch.tensor([arr.rows[e] for e, _, _ in each])
     assert torch.equal(out.f[0, 1:], t.f[0, src])  # per-texton fields copied by index
     assert torch.equal(out.cov[0, 1:], t.cov[0, src])
-    shift = torch.tensor([[p[1], p[2]] for p in arr.placements], dtype=out.mu.dtype)
+    shift = torch.tensor([[dx, dy] for _, dx, dy in each], dtype=out.mu.dtype)
     assert torch.allclose(out.mu[0, 1:], t.mu[0, src] + shift)
     assert len(arr.placements) > 2 * 40  # 4.5x the area: many more elements than the input
+
+
+def test_groups_or_textons_alone_whichever_covers_like_the_input():
+    t = _tiny_texture()
+    arr = arrange(t, (2.0, 2.0), _colours(t), ArrangeSettings(iterations=1))
+    assert "coverage: input" in arr.notes[-1]
+    alone = arrange(t, (2.0, 2.0), _colours(t), ArrangeSettings(iterations=1, group_extent=0))
+    assert all(len(g) == 1 for g in alone.groups) and "coverage" not in " ".join(alone.notes)
+    target = coverage(t, 1)
+    kept = abs(coverage(arr.textons, 1) - target)
+    assert kept <= abs(coverage(alone.textons, 1) - target) + 1e-9
+
+
+def test_background_sprite_is_made_constant_at_its_mean():
+    from neuraltex.texton_detail import split
+
+    t = _tiny_texture()
+    sprites = torch.rand(1, 41, 3, 4, 4, generator=torch.Generator().manual_seed(0)) - 0.5
+    t = replace(t, f=torch.cat([t.f, sprites.flatten(2)], -1))
+    out = steady_background(t, torch.tensor([0]), t.f.shape[-1] - 48, 64)
+    got = split(out, t.f.shape[-1] - 48)[1]
+    assert torch.equal(got[:, 1:], sprites[:, 1:])  # the elements' sprites untouched
+    flat = got[0, 0].flatten(1)  # (3, 16): one value per channel
+    assert torch.allclose(flat, flat[:, :1].expand(-1, 16))
+    lo, hi = sprites[0, 0].flatten(1).min(1).values, sprites[0, 0].flatten(1).max(1).values
+    assert bool(((flat[:, 0] > lo) & (flat[:, 0] < hi)).all())  # a mean of its texels
 
 
 def test_tileable_decode_wraps_around(tiny_checkpoint):

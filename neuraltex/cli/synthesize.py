@@ -18,8 +18,9 @@ MIN_SIDE = 16  # output pixels
 def cmd_synthesize(args: argparse.Namespace) -> int:
     """Grow a texture: its textons (of an image, or of a texture file from ``neuraltex fit``,
     decoded with its tuned decoder) are arranged on a larger canvas by cvt's synthesis, as
-    Gaussian elements with their kind and colour, and decoded at the output size. With
-    --tileable the arrangement wraps around and so does the decode."""
+    Gaussian elements (the textons of one object together, or one by one: whichever covers
+    the canvas like the input) with their size and colour, and decoded at the output size.
+    With --tileable the arrangement wraps around and so does the decode."""
     from neuraltex.imageio import check_output_path
 
     check_output_path(args.output)
@@ -99,7 +100,8 @@ def _write_svg(arr, path: Path, size: tuple[int, int], short: int) -> None:
     text = to_svg(replace(arr.exemplar, unit_scale=(short, "")), arr.svg_placements, canvas)
     text = with_backdrop(text, arr.background_fill)
     write_text_atomic(path, text)
-    print(f"wrote {path} ({len(arr.svg_placements)} ellipses, {size[1]}x{size[0]} canvas)")
+    count = sum(len(arr.groups[g]) for g, _, _ in arr.svg_placements)
+    print(f"wrote {path} ({count} ellipses, {size[1]}x{size[0]} canvas)")
 
 
 def add_commands(sub) -> None:
