@@ -121,8 +121,8 @@ def cmd_reshuffle(args: argparse.Namespace) -> int:
     kinds = texton_kinds(textons, channels=plain)
     by_elements = args.by == "elements" and tex.elements is not None
     if args.by == "elements" and tex.elements is None and tex.labels is not None:
-        print(f"{args.image}: a texture file from an older neuraltex has no elements; "
-              "reshuffling textons (fit it again to move whole elements)")
+        print(f"{args.image}: this texture file has no elements (fit it again to move whole "
+              "elements); reshuffling textons")
     for i, path in enumerate(paths):
         seed = None if args.seed is None else args.seed + i
         if by_elements:
