@@ -61,6 +61,22 @@ def splat(textons: Textons, size: tuple[int, int], *, window: Window | None = No
     return Splat(tiles.untile(out, H, W), tiles.untile(fmax.unsqueeze(1), H, W))
 
 
+def weighted_sums(textons: Textons, values: Tensor, *, window: Window | None = None,
+                  cutoff: float | None = None) -> Tensor:
+    """sum_p a_i(p) values(p) for every texton i: the composited weights (eq. 4.13) summed
+    against a map, without materializing the (K, H*W) weights. The splat is linear in the
+    features, F -> sum_i a_i F_i, so these sums are its vector-Jacobian product with
+    ``values`` (tiled like :func:`splat`). values (B, C, H, W) -> (B, K, C)."""
+    from dataclasses import replace
+
+    B, C, H, W = values.shape
+    with torch.enable_grad():
+        f = values.new_zeros(B, textons.num_textons, C, requires_grad=True)
+        out = splat(replace(textons.detach(), f=f), (H, W), window=window, cutoff=cutoff)
+        (g,) = torch.autograd.grad(out.features[:, :C], f, grad_outputs=values)
+    return g
+
+
 def top_weights(textons: Textons, size: tuple[int, int], k: int = 4, *,
                 window: Window | None = None, cutoff: float | None = None
                 ) -> tuple[Tensor, Tensor]:

@@ -101,16 +101,19 @@ def texton_colours(model, textons: Textons, short: int) -> tuple[Tensor, Tensor]
     texture, weighted by its composited opacity a_i (eq. 4.13), and of what the decoder paints
     where no texton is (weight 1 - sum_i a_i), decoded at the texture's own ``short`` side
     (the decoder is tuned to that pixel pitch)."""
-    from neuraltex.splatting import opacity_maps
+    from neuraltex.splatting import splat, weighted_sums
 
     w, h = textons.canvas
     size = (max(1, round(short * h / min(w, h))), max(1, round(short * w / min(w, h))))
     with torch.no_grad():
-        image = model.decode(textons, size)[0].flatten(1)  # (3, HW)
-        a = opacity_maps(textons, size, cutoff=model.cutoff)[0].flatten(1)  # (K, HW)
-    colours = (a @ image.T) / a.sum(1, keepdim=True).clamp_min(1e-6)  # (K, 3)
-    empty = (1 - a.sum(0)).clamp_min(0)  # (HW,)
-    ground = (image @ empty) / empty.sum().clamp_min(1e-6)  # (3,)
+        image = model.decode(textons, size)                            # (1, 3, H, W)
+        ones = textons.f.new_ones(1, textons.num_textons, 1)
+        covered = splat(replace(textons, f=ones), size, cutoff=model.cutoff).features[:, :1]
+    sums = weighted_sums(textons, torch.cat([image, torch.ones_like(covered)], 1),
+                         cutoff=model.cutoff)[0]                       # (K, 4): sum a image, sum a
+    colours = sums[:, :3] / sums[:, 3:].clamp_min(1e-6)
+    empty = (1 - covered[0, 0]).clamp_min(0)                           # (H, W)
+    ground = (image[0] * empty).sum((1, 2)) / empty.sum().clamp_min(1e-6)
     return colours.clamp(0, 1).cpu(), ground.clamp(0, 1).cpu()
 
 
@@ -203,15 +206,16 @@ def _arrange(textons: Textons, elems: Tensor, back: Tensor, canvas: tuple[float,
 
 def coverage(textons: Textons, skip: int = 0, pitch: int = COVERAGE_PITCH) -> float:
     """Mean share of the canvas the textons after the first ``skip`` (the background layer)
-    cover: 1 - prod_i (1 - o_i) (eq. 4.13's composited weights summed), at ``pitch`` pixels
-    per unit."""
-    from neuraltex.splatting import opacity_maps
+    cover: 1 - prod_i (1 - o_i) = sum_i a_i (eq. 4.13's composited weights), at ``pitch``
+    pixels per unit."""
+    from neuraltex.splatting import splat
 
     w, h = textons.canvas
     elems = textons.index(torch.arange(skip, textons.num_textons))
+    ones = elems.f.new_ones(1, elems.num_textons, 1)
     with torch.no_grad():
-        a = opacity_maps(elems, (max(1, round(pitch * h)), max(1, round(pitch * w))))
-    return float(a[0].sum(0).clamp(0, 1).mean())
+        a = splat(replace(elems, f=ones), (max(1, round(pitch * h)), max(1, round(pitch * w))))
+    return float(a.features[0, 0].clamp(0, 1).mean())
 
 
 def _centred(box: np.ndarray, p: tuple[int, float, float], canvas) -> bool:

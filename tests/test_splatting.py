@@ -6,7 +6,7 @@ import torch
 
 from conftest import make_textons, single
 from neuraltex.coords import pixel_grid
-from neuraltex.splatting import opacity_maps, splat, splat_reference
+from neuraltex.splatting import opacity_maps, splat, splat_reference, weighted_sums
 from neuraltex.textons import Textons
 
 
@@ -189,3 +189,12 @@ def test_composited_opacity_maps_sum_to_at_most_one():
     # Reassembling features from the maps reproduces the splat.
     feats = torch.einsum("bkhw,bkc->bchw", a, t.features())
     assert torch.allclose(feats, splat(t, (24, 24)).features, atol=1e-5)
+
+
+@pytest.mark.parametrize("cutoff", [None, 3.0])
+def test_weighted_sums_match_the_materialized_weights(cutoff):
+    t = make_textons(B=2, K=9, C=5, dtype=torch.float64, seed=4, scale=0.08)
+    values = torch.rand(2, 3, 20, 24, dtype=torch.float64)
+    a = opacity_maps(t, (20, 24), cutoff=cutoff)  # (B, K, H, W), composited
+    want = torch.einsum("bkhw,bchw->bkc", a, values)
+    torch.testing.assert_close(weighted_sums(t, values, cutoff=cutoff), want)
