@@ -27,7 +27,7 @@ import numpy as np
 import torch
 from torch import Tensor
 
-from neuraltex.texton_kinds import BACKGROUND_SHARE
+from neuraltex.texton_kinds import BACKGROUND_SHARE, texton_area
 from neuraltex.textons import Textons
 
 COARSER = 4.0       # elements: Felzenszwalb at this many times the fit's scale
@@ -65,8 +65,6 @@ def group_textons(image: Tensor, labels: np.ndarray, textons: Textons | None = N
 def _concentric(textons: Textons) -> tuple[np.ndarray, np.ndarray]:
     """Pairs (i, j) of textons whose centres lie within Mahalanobis distance CONCENTRIC of
     each other in both Gaussians' metrics (j the larger, not the background)."""
-    from neuraltex.texton_kinds import texton_area
-
     mu, cov = textons.mu[0].detach().cpu().double(), textons.cov[0].detach().cpu().double()
     area = texton_area(textons)[0].detach().cpu().double()
     canvas = textons.canvas[0] * textons.canvas[1]
@@ -125,14 +123,20 @@ def move_elements(textons: Textons, labels: np.ndarray, groups: np.ndarray, *,
                   seed: int | None = None, size_ratio: float = SIZE_RATIO) -> Textons:
     """Each element takes the place of another of its shape class; its textons (batch size
     1) move with all their features. Deterministic per seed."""
-    shapes = element_shapes(labels, groups)
+    return _move(textons, element_shapes(labels, groups), groups, min(labels.shape), seed,
+                 size_ratio)
+
+
+def _move(textons: Textons, shapes: ElementShapes, groups: np.ndarray, short: int,
+          seed: int | None, size_ratio: float) -> Textons:
+    """:func:`move_elements` with the elements' shapes at hand (``short``: pixels per unit)."""
     classes = shape_classes(shapes, size_ratio)
     rng = np.random.default_rng(seed)
     target = np.arange(len(classes))
     for c in np.unique(classes[classes >= 0]):
         idx = np.nonzero(classes == c)[0]
         target[idx] = idx[rng.permutation(len(idx))]
-    shift = (shapes.centre[target] - shapes.centre)[groups] / min(labels.shape)  # (K, 2)
+    shift = (shapes.centre[target] - shapes.centre)[groups] / short  # (K, 2)
     return replace(textons, mu=textons.mu + torch.from_numpy(shift).to(textons.mu)[None])
 
 
@@ -151,7 +155,7 @@ def reshuffle_elements(textons: Textons, labels: np.ndarray, groups: np.ndarray,
     shapes = element_shapes(labels, groups)
     stuff = torch.from_numpy(shapes.background[groups]).to(textons.device)[None]  # (1, K)
     kinds = texton_kinds(textons, channels=channels, size_ratio=size_ratio).to(textons.device)
-    moved = move_elements(textons, labels, groups, seed=seed, size_ratio=size_ratio)
+    moved = _move(textons, shapes, groups, min(labels.shape), seed, size_ratio)
     # a moved object lands on ground it did not cover before: draw the ground behind it
     key = (~stuff).long() * textons.num_textons + textons.order
     order = torch.argsort(torch.argsort(key, dim=1), dim=1)

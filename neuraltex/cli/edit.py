@@ -118,11 +118,11 @@ def cmd_reshuffle(args: argparse.Namespace) -> int:
     tex = _texture(args, model, args.image)
     decoder, (textons,) = common.decoder_for(model, tex)
     plain = decoder.generator.feature_channels - 2  # [f_a, d]; detail sprites after
-    kinds = texton_kinds(textons, channels=plain)
     by_elements = args.by == "elements" and tex.elements is not None
     if args.by == "elements" and tex.elements is None and tex.labels is not None:
         print(f"{args.image}: this texture file has no elements (fit it again to move whole "
               "elements); reshuffling textons")
+    kinds = None if by_elements else texton_kinds(textons, channels=plain)
     for i, path in enumerate(paths):
         seed = None if args.seed is None else args.seed + i
         if by_elements:
