@@ -11,10 +11,11 @@ inversion). Here:
    optimized together for L1 + L2 reconstruction of random crops of the image, rendered through
    the splatting h (eqs. 4.11-4.14) in a random dihedral pose (flips, transpose), so G learns to
    render textons, not one fixed picture;
-4. what G still misses is fitted, by least squares, as a small RGB sprite per texton in its
-   own frame (:mod:`neuraltex.texton_detail`): appearance that moves with the texton.
-5. the textons are grouped into elements, the objects they make together
-   (:mod:`neuraltex.texton_elements`), so a reshuffle can move whole objects.
+4. the textons are grouped into elements, the objects they make together
+   (:mod:`neuraltex.texton_elements`), so a reshuffle can move whole objects;
+5. what G still misses is fitted, by least squares, as a small RGB sprite per texton in its
+   own frame (:mod:`neuraltex.texton_detail`): appearance that moves with the texton, fitted
+   to the texture and, lightly, to layouts in which its elements trade places.
 
 E_FC and E_s stay frozen, so features of every tuned texture live in the base model's feature
 space (transfer and interpolation between texture files stay meaningful), and a texture is
@@ -37,12 +38,14 @@ from neuraltex.estimation import estimate_textons, painter_order
 from neuraltex.nn_utils import resize
 from neuraltex.segmenters import MAX_SEGMENTS, METHODS, segment_labels, soft_masks
 from neuraltex.splatting import splat
-from neuraltex.texton_detail import DetailSampler, attach, auto_side
-from neuraltex.texton_elements import group_textons
+from neuraltex.texton_detail import DetailSampler, attach, auto_side, fit_sprites
+from neuraltex.texton_elements import group_textons, swapped_layout
 from neuraltex.textons import Textons
 from neuraltex.tuned_decoder import ColourOffsetGenerator
 
 SEGMENTERS = ("auto", *METHODS)
+SWAPPED_LAYOUTS = 2    # layouts with elements traded that the detail sprites also fit ...
+SWAPPED_WEIGHT = 0.1   # ... each weighted this much against the texture itself
 
 
 @dataclass
@@ -242,23 +245,40 @@ def fit_texture(model, image: Tensor, settings: FitSettings | None = None,
     fitted = current().detach()
     plain = score = _full_psnr(model, G, image, fitted)
     start = time.perf_counter()
+    elements = group_textons(image, labels, fitted)
     side = auto_side(fitted.num_textons, (H, W)) if cfg.detail is None else cfg.detail
     if side:
-        fitted = fit_detail(model, G, image, fitted, side)
+        fitted = fit_detail(model, G, image, fitted, side, labels, elements)
         score = _full_psnr(model, G, image, fitted)
     tuned = {k: v.detach().clone() for k, v in G.generator.named_parameters()}
     return TextureFit(fitted, labels, tuned, method, step, seconds, score, side, base, plain,
-                      time.perf_counter() - start, group_textons(image, labels, fitted))
+                      time.perf_counter() - start, elements)
 
 
-def fit_detail(model, G: nn.Module, image: Tensor, textons: Textons, side: int) -> Textons:
+def fit_detail(model, G: nn.Module, image: Tensor, textons: Textons, side: int,
+               labels: np.ndarray | None = None, elements: np.ndarray | None = None
+               ) -> Textons:
     """The textons with detail sprites (``side`` texels) fitted to what G's decode misses:
-    f -> [f, vec(D)] (:mod:`neuraltex.texton_detail`)."""
+    f -> [f, vec(D)] (:mod:`neuraltex.texton_detail`). With the ``labels`` and ``elements``,
+    the sprites also fit SWAPPED_LAYOUTS layouts in which the elements trade places, weighted
+    SWAPPED_WEIGHT (:func:`neuraltex.texton_elements.swapped_layout`): the detail must then
+    move with its element instead of staying in the ground where the element was. Measured
+    (2 layouts, weight 0.1, 3 real textures): the reconstruction's patch-SWD drops a little
+    (coins 50.7 -> 48.5, stone_wall 328 -> 307, leopard 241 -> 230) and a reshuffle's more
+    (210 -> 169, 443 -> 421, 294 -> 263)."""
     H, W = image.shape[-2:]
-    with torch.no_grad():
-        residual = image - model.decode(textons, (H, W), generator=G)[0]  # (3, H, W)
-    sampler = DetailSampler(textons, (H, W), cutoff=model.cutoff)
-    return attach(textons, sampler.fit(residual[None], side).detach())
+    layouts = [(textons, image, None)]
+    if elements is not None and labels is not None:
+        layouts += [(moved, target, SWAPPED_WEIGHT * known) for moved, target, known in
+                    (swapped_layout(image, labels, elements, textons, seed=101 + i)
+                     for i in range(SWAPPED_LAYOUTS))]
+    samplers, residuals = [], []
+    for t, target, _ in layouts:
+        with torch.no_grad():
+            residuals.append((target - model.decode(t, (H, W), generator=G)[0])[None])
+        samplers.append(DetailSampler(t, (H, W), cutoff=model.cutoff))
+    sprites = fit_sprites(samplers, residuals, [w for *_, w in layouts], side)
+    return attach(textons, sprites.detach())
 
 
 def _done(cfg: FitSettings, step: int, elapsed: float) -> bool:

@@ -159,34 +159,63 @@ class DetailSampler:
 
     def fit(self, residual: Tensor, side: int = SPRITE, iters: int = 40,
             ridge: float = RIDGE) -> Tensor:
-        """Least-squares sprites: argmin |render(D) - residual|^2 + ridge |D|^2, by conjugate
-        gradients on the normal equations; render is linear, so its transpose is its
-        vector-Jacobian product. Texels are kept in [-1, 1], the range of a residual (a
-        larger value only makes up for a tiny weight, and would flare where the texton
-        moves). residual (B, 3, H, W) -> (B, K, 3, S, S)."""
-        B = residual.shape[0]
-        shape = (B, self.K, 3, side, side)
+        """Least-squares sprites: argmin |render(D) - residual|^2 + ridge |D|^2
+        (:func:`fit_sprites` with this one layout). residual (B, 3, H, W) -> (B, K, 3, S, S)."""
+        return fit_sprites([self], [residual], None, side, iters, ridge)
 
-        def normal(x: Tensor) -> Tensor:  # (A^T A + ridge I) x
-            x = x.detach().requires_grad_(True)
-            out = self.render(x)
-            (g,) = torch.autograd.grad(out, x, grad_outputs=out)
-            return g + ridge * x.detach()
 
-        zero = torch.zeros(shape, dtype=residual.dtype, device=residual.device, requires_grad=True)
-        (b,) = torch.autograd.grad(self.render(zero), zero, grad_outputs=residual)
-        x = torch.zeros(shape, dtype=residual.dtype, device=residual.device)
-        r = b.clone()
-        p, rr = r.clone(), (r * r).sum()
-        for _ in range(iters):
-            if rr <= 1e-12:
-                break
-            q = normal(p)
-            alpha = rr / (p * q).sum().clamp_min(1e-30)
-            x, r = x + alpha * p, r - alpha * q
-            rr_new = (r * r).sum()
-            p, rr = r + rr_new / rr * p, rr_new
-        return x.clamp(-1, 1)
+def fit_sprites(samplers: list[DetailSampler], residuals: list[Tensor],
+                weights: list[Tensor | None] | None = None, side: int = SPRITE,
+                iters: int = 40, ridge: float = RIDGE) -> Tensor:
+    """Sprites that explain several layouts of the same textons at once:
+    argmin sum_l |W_l^(1/2) (render_l(D) - residual_l)|^2 + ridge |D|^2, by conjugate
+    gradients on the normal equations; each render is linear, so its transpose is its
+    vector-Jacobian product. samplers: one per layout (the same K textons, moved);
+    residuals (B, 3, H, W) each; weights: per layout None or a per-pixel weight (H, W)
+    (0 where the layout's target is unknown). Texels are kept in [-1, 1], the range of a
+    residual (a larger value only makes up for a tiny weight, and would flare where the
+    texton moves). -> (B, K, 3, S, S)."""
+    with torch.enable_grad():
+        return _conjugate_gradients(samplers, residuals, weights or [None] * len(samplers),
+                                    side, iters, ridge)
+
+
+def _conjugate_gradients(samplers, residuals, weights, side, iters, ridge) -> Tensor:
+    """:func:`fit_sprites` (gradients on: each transpose is a vector-Jacobian product)."""
+    B, ref = residuals[0].shape[0], residuals[0]
+    shape = (B, samplers[0].K, 3, side, side)
+
+    def transpose(sampler: DetailSampler, image: Tensor) -> Tensor:  # render^T image
+        zero = torch.zeros(shape, dtype=ref.dtype, device=ref.device, requires_grad=True)
+        (g,) = torch.autograd.grad(sampler.render(zero), zero, grad_outputs=image)
+        return g
+
+    def weigh(image: Tensor, w: Tensor | None) -> Tensor:
+        return image if w is None else image * w
+
+    def normal(x: Tensor) -> Tensor:  # (sum_l A_l^T W_l A_l + ridge I) x
+        x = x.detach().requires_grad_(True)
+        out = ridge * x.detach()
+        for sampler, w in zip(samplers, weights, strict=True):
+            image = sampler.render(x)
+            (g,) = torch.autograd.grad(image, x, grad_outputs=weigh(image.detach(), w))
+            out = out + g
+        return out
+
+    b = sum(transpose(s, weigh(r, w)) for s, r, w in zip(samplers, residuals, weights,
+                                                         strict=True))
+    x = torch.zeros(shape, dtype=ref.dtype, device=ref.device)
+    r = b.clone()
+    p, rr = r.clone(), (r * r).sum()
+    for _ in range(iters):
+        if rr <= 1e-12:
+            break
+        q = normal(p)
+        alpha = rr / (p * q).sum().clamp_min(1e-30)
+        x, r = x + alpha * p, r - alpha * q
+        rr_new = (r * r).sum()
+        p, rr = r + rr_new / rr * p, rr_new
+    return x.clamp(-1, 1)
 
 
 def render_detail(textons: Textons, sprites: Tensor, size: tuple[int, int],

@@ -5,12 +5,17 @@ object into several textons, and trading appearance features between such fragme
 003, 4.4.1) mixes pieces of different objects: half a coin on another coin's rim. So a fit
 also groups its textons into *elements* — Felzenszwalb segments of the image at ``COARSER``
 times the scale of the fit's segments, every texton joining the element that holds most of
-its pixels — and a reshuffle can move whole elements instead: element e takes the place of
-element pi(e), pi a random permutation within a *shape class* (area within a factor
-``SIZE_RATIO``, elongation within a factor 2, for elongated elements the long axis within 45
-degrees), and all its textons move by the offset between the two elements' centroids, their
-features and detail sprites with them. What a decoder sees is then a translated copy of
-what it was tuned on.
+its pixels; concentric textons and *hugging* elements (a coin's rim arcs, a rosette's ring:
+almost all their pixels within a quarter radius of a larger element) join too — and a
+reshuffle can move whole elements instead: element e takes the place of element pi(e), pi a
+random permutation within a *shape class* (area within a factor ``SIZE_RATIO``, elongation
+within a factor 2, for elongated elements the long axis within 45 degrees), and all its
+textons move by the offset between the two elements' centroids, their features and detail
+sprites with them. What a decoder sees is then a translated copy of what it was tuned on.
+The ratio is tight (1.1) because the tuned decoder and the ground's detail sprite hold the
+halo of the object that was there: measured on coins, two coins of equal area trade places
+with a mean error of 0.004 against the reconstruction with their pixels pasted; with two more
+coins 1.07x apart it is 0.013 (a dark ring where the larger one was).
 
 Elements cut by the canvas border trade places only with elements cut by the same sides (moved
 inside they would show their cut edge). Background elements (at least BACKGROUND_SHARE of the
@@ -32,8 +37,10 @@ from neuraltex.textons import Textons
 
 COARSER = 4.0       # elements: Felzenszwalb at this many times the fit's scale
 CONCENTRIC = 0.5    # Mahalanobis distance within which a smaller texton is concentric
-SIZE_RATIO = 1.5     # largest area ratio of two elements that trade places
+SIZE_RATIO = 1.1     # largest area ratio of two elements that trade places
 ELONGATED = 1.5      # sqrt(l1 / l2) above which an element has a direction
+HUG_REACH = 0.25     # a hugging element lies within this many radii of a larger one ...
+HUG_SHARE = 0.8      # ... with this share of its pixels
 
 
 def group_textons(image: Tensor, labels: np.ndarray, textons: Textons | None = None,
@@ -59,7 +66,33 @@ def group_textons(image: Tensor, labels: np.ndarray, textons: Textons | None = N
     n = K + joint.shape[1]
     graph = coo_matrix((np.ones(len(src)), (src, dst)), shape=(n, n))
     _, component = connected_components(graph, directed=False)
-    return np.unique(component[:K], return_inverse=True)[1].ravel().astype(np.int64)
+    groups = np.unique(component[:K], return_inverse=True)[1].ravel().astype(np.int64)
+    i, j = _hugging(groups[labels])
+    graph = coo_matrix((np.ones(len(i)), (i, j)), shape=(groups.max() + 1,) * 2)
+    return connected_components(graph, directed=False)[1][groups].astype(np.int64)
+
+
+def _hugging(elements: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Pairs (i, j): element i lies almost whole (HUG_SHARE of its pixels) within HUG_REACH
+    times the radius of the larger element j of the (H, W) element map — a coin's rim arc
+    around its face, a rosette's ring around its centre, a halo (background elements
+    excluded). Each i joins the j that holds most of it."""
+    from scipy.ndimage import distance_transform_edt
+
+    E = int(elements.max()) + 1
+    area = np.bincount(elements.ravel(), minlength=E)
+    big = area >= BACKGROUND_SHARE * elements.size
+    best, share = np.full(E, -1), np.zeros(E)
+    for j in np.argsort(-area):
+        if big[j] or area[j] < 16:
+            continue
+        reach = HUG_REACH * math.sqrt(area[j] / math.pi)
+        near = distance_transform_edt(elements != j) <= reach        # (H, W)
+        s = np.bincount(elements[near], minlength=E) / np.maximum(area, 1)
+        take = (s >= HUG_SHARE) & (s > share) & (area < area[j]) & ~big
+        best[take], share[take] = j, s[take]
+    i = np.nonzero(best >= 0)[0]
+    return i, best[i]
 
 
 def _concentric(textons: Textons) -> tuple[np.ndarray, np.ndarray]:
@@ -112,11 +145,18 @@ def element_shapes(labels: np.ndarray, groups: np.ndarray,
 def shape_classes(shapes: ElementShapes, size_ratio: float = SIZE_RATIO) -> np.ndarray:
     """(E,) int64 class of each element (-1: the background stays); elements of one class
     trade places: alike in area, elongation, direction and the canvas sides that cut them."""
-    a = np.floor(np.log(np.maximum(shapes.area, 1)) / math.log(size_ratio))
     e = np.floor(np.log(shapes.elongation) / math.log(2))
     d = np.where(shapes.elongation > ELONGATED, np.floor(shapes.angle / (math.pi / 4)) % 4, -1)
-    _, classes = np.unique(np.stack([a, e, d, shapes.sides], 1), axis=0, return_inverse=True)
-    return np.where(shapes.background, -1, classes.ravel()).astype(np.int64)
+    _, kind = np.unique(np.stack([e, d, shapes.sides], 1), axis=0, return_inverse=True)
+    # within a kind, runs of areas sorted ascending, each within size_ratio of its smallest
+    # (fixed log-area bins would part two coins of 1.01x the area at a bin edge)
+    area = np.maximum(shapes.area, 1)
+    classes, start, last = np.empty(len(area), np.int64), np.inf, -1
+    for n, i in enumerate(np.lexsort((area, kind.ravel()))):
+        if kind.ravel()[i] != last or area[i] > start * size_ratio:
+            start, last, c = area[i], kind.ravel()[i], n
+        classes[i] = c
+    return np.where(shapes.background, -1, np.unique(classes, return_inverse=True)[1].ravel())
 
 
 def move_elements(textons: Textons, labels: np.ndarray, groups: np.ndarray, *,
@@ -130,14 +170,48 @@ def move_elements(textons: Textons, labels: np.ndarray, groups: np.ndarray, *,
 def _move(textons: Textons, shapes: ElementShapes, groups: np.ndarray, short: int,
           seed: int | None, size_ratio: float) -> Textons:
     """:func:`move_elements` with the elements' shapes at hand (``short``: pixels per unit)."""
+    target = permutation(shapes, seed, size_ratio)
+    shift = (shapes.centre[target] - shapes.centre)[groups] / short  # (K, 2)
+    return replace(textons, mu=textons.mu + torch.from_numpy(shift).to(textons.mu)[None])
+
+
+def permutation(shapes: ElementShapes, seed: int | None,
+                size_ratio: float = SIZE_RATIO) -> np.ndarray:
+    """(E,) int64: the element whose place each element takes, a random permutation within
+    each shape class (:func:`shape_classes`); the background stays."""
     classes = shape_classes(shapes, size_ratio)
     rng = np.random.default_rng(seed)
     target = np.arange(len(classes))
     for c in np.unique(classes[classes >= 0]):
         idx = np.nonzero(classes == c)[0]
         target[idx] = idx[rng.permutation(len(idx))]
-    shift = (shapes.centre[target] - shapes.centre)[groups] / short  # (K, 2)
-    return replace(textons, mu=textons.mu + torch.from_numpy(shift).to(textons.mu)[None])
+    return target
+
+
+def swapped_layout(image: Tensor, labels: np.ndarray, groups: np.ndarray, textons: Textons,
+                   seed: int) -> tuple[Textons, Tensor, Tensor]:
+    """A layout in which elements trade places as in a reshuffle, by whole pixels, and what it
+    must look like: -> (the textons moved, the target (3, H, W): ``image`` with every moved
+    element's pixels pasted at its new place, its mask (H, W) float: 0 where an element left
+    and none arrived, a place whose look nothing in the image tells). Fitting detail to such
+    layouts too keeps the ground's detail from holding the halo of the object that was there."""
+    H, W = labels.shape
+    shapes = element_shapes(labels, groups)
+    target = permutation(shapes, seed)
+    d = np.round(shapes.centre[target] - shapes.centre).astype(np.int64)   # (E, 2) x, y px
+    where = groups[labels]                                                 # (H, W) element
+    out, known = image.clone(), np.ones((H, W), bool)
+    moved = np.nonzero(target != np.arange(len(target)))[0]
+    known[np.isin(where, moved)] = False
+    for e in moved:
+        ys, xs = np.nonzero(where == e)
+        ny, nx = ys + d[e, 1], xs + d[e, 0]
+        ok = (ny >= 0) & (ny < H) & (nx >= 0) & (nx < W)
+        out[:, ny[ok], nx[ok]] = image[:, ys[ok], xs[ok]]
+        known[ny[ok], nx[ok]] = True
+    shift = torch.from_numpy(d[groups] / min(H, W)).to(textons.mu)       # (K, 2)
+    return (replace(textons, mu=textons.mu + shift[None]), out,
+            torch.from_numpy(known).to(image.dtype))
 
 
 def reshuffle_elements(textons: Textons, labels: np.ndarray, groups: np.ndarray, *,

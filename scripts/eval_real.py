@@ -47,6 +47,7 @@ from neuraltex.texture_file import load_texture, save_texture  # noqa: E402
 from neuraltex.tuned_decoder import tuned_model  # noqa: E402
 
 REAL = Path(__file__).resolve().parents[1] / "data" / "real_textures"
+VISIBLE = 0.005  # mean |reshuffle - reconstruction| of a reshuffle that changes the picture
 COLS = ("flat", "blur", "kmeans8", "plain", "fit", "ssim_blur", "ssim_fit", "swd_rec",
         "swd_shuf", "swd_shuf_t", "swd_rand", "change", "seconds", "steps", "textons", "kib",
         "edit_s")
@@ -138,13 +139,15 @@ def table(rows: list[tuple[str, dict]]) -> str:
     lines = [head, "|" + "---|" * (len(COLS) + 2)]
     for name, r in rows:
         lines.append(f"| {name} | {r.get('segmenter', '')} | "
-                     + " | ".join(_fmt(r[c]) for c in COLS) + " |")
+                     + " | ".join(_fmt(r[c], c) for c in COLS) + " |")
     mean = {c: float(np.mean([r[c] for _, r in rows])) for c in COLS}
-    lines.append("| **mean** | | " + " | ".join(_fmt(mean[c]) for c in COLS) + " |")
+    lines.append("| **mean** | | " + " | ".join(_fmt(mean[c], c) for c in COLS) + " |")
     return "\n".join(lines)
 
 
-def _fmt(x) -> str:
+def _fmt(x, column: str = "") -> str:
+    if column == "change":
+        return f"{x:.3f}"
     return f"{x:.0f}" if isinstance(x, int) or abs(x) >= 100 else f"{x:.2f}"
 
 
@@ -152,6 +155,7 @@ def summary(rows: list[tuple[str, dict]]) -> list[str]:
     r = [row for _, row in rows]
     n = len(r)
     mean = lambda key: float(np.mean([x[key] for x in r]))  # noqa: E731
+    visible = sum(x["swd_shuf"] <= 1.25 * x["swd_rec"] and x["change"] >= VISIBLE for x in r)
     return [
         f"mean PSNR: fit {mean('fit'):.2f} dB (G alone {mean('plain'):.2f}) | flat "
         f"{mean('flat'):.2f} | blur {mean('blur'):.2f} "
@@ -165,6 +169,8 @@ def summary(rows: list[tuple[str, dict]]) -> list[str]:
         f"{mean('swd_shuf'):.2f} vs {mean('swd_shuf_t'):.2f}; the texton reshuffle is "
         f"<= 1.25 x reconstruction on {sum(x['swd_shuf_t'] <= 1.25 * x['swd_rec'] for x in r)}"
         f"/{n}); mean change {mean('change'):.3f}",
+        f"within 1.25 x and changing the picture (mean |reshuffle - reconstruction| >= "
+        f"{VISIBLE}): {visible}/{n}",
         f"fit seconds mean {mean('seconds'):.1f} (max {max(x['seconds'] for x in r):.1f}); "
         f"texture file {mean('kib'):.0f} KiB (max {max(x['kib'] for x in r):.0f}); reshuffle "
         f"decode {mean('edit_s'):.2f} s",

@@ -77,6 +77,33 @@ def test_reshuffle_moves_whole_elements_of_a_texture_file(tmp_path):
     assert near.amin(1).max() < 0.25 and near.diagonal().max() > 0.5
 
 
+def test_reshuffle_size_ratio_lets_objects_of_other_sizes_trade_places(tmp_path):
+    """Eight large discs and one small one (area 0.56x): by default (1.1) the small disc never
+    moves; with --size-ratio 2 it trades places with a large one for some seed."""
+    from neuraltex.imageio import load_image
+
+    yy, xx = np.mgrid[0:72, 0:72]
+    pic = np.full((72, 72, 3), 128, np.uint8)
+    centres = [(12 + 24 * (i // 3), 12 + 24 * (i % 3)) for i in range(9)]
+    for i, (cy, cx) in enumerate(centres):
+        colour = (250, 250, 250) if i == 4 else (40 + 20 * i, 200 - 15 * i, 60)
+        pic[(yy - cy) ** 2 + (xx - cx) ** 2 <= (20 if i == 4 else 36)] = colour
+    Image.fromarray(pic).save(tmp_path / "discs.png")
+    ntex = tmp_path / "discs.ntex"
+    assert main(["fit", str(tmp_path / "discs.png"), "-o", str(ntex), "--steps", "30",
+                 "--segmenter", "felzenszwalb"]) == 0
+
+    def small_disc_stays(*extra: str) -> list[bool]:
+        out = tmp_path / "out_{i}.png"
+        assert main(["reshuffle", str(ntex), "-o", str(out), "--count", "4", "--seed", "0",
+                     *extra]) == 0
+        return [load_image(tmp_path / f"out_{i}.png")[:, 36, 36].min().item() > 0.8
+                for i in range(4)]
+
+    assert all(small_disc_stays())
+    assert not all(small_disc_stays("--size-ratio", "2"))
+
+
 def test_texture_file_edit_list(files, tmp_path):
     edits = tmp_path / "e.json"
     edits.write_text(json.dumps([{"select": {"point": [0.5, 0.5]}, "op": "scale", "by": 1.5}]))

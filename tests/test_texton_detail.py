@@ -12,6 +12,7 @@ from neuraltex.texton_detail import (
     REACH,
     DetailSampler,
     attach,
+    fit_sprites,
     frames,
     render_detail,
     split,
@@ -78,6 +79,29 @@ def test_least_squares_sprites_reproduce_a_detail_image():
     t.mu[0, 0] = torch.tensor([5.0, 5.0])  # off the canvas: no pixel sees texton 0
     off = DetailSampler(t, (48, 48), cutoff=3.0).fit(target, side=8)
     assert off[0, 0].abs().max() == 0 and off[0, 1:].abs().max() > 0
+
+
+def test_sprites_fitted_on_several_layouts_explain_each_and_skip_unknown_pixels():
+    """Two layouts of the same textons (the second one moved): one set of sprites explains
+    both targets; a pixel of weight 0 (a place whose look is unknown) does not pull it."""
+    t = random_textons(16, seed=5)
+    moved = random_textons(16, seed=5)
+    moved.mu[0] += torch.tensor([0.1, -0.05])
+    a, b = DetailSampler(t, (48, 48), cutoff=3.0), DetailSampler(moved, (48, 48), cutoff=3.0)
+    truth = torch.randn(1, 16, 3, 8, 8, generator=torch.Generator().manual_seed(6)) * 0.1
+    ta, tb = a.render(truth), b.render(truth)
+    corrupt = tb.clone()
+    corrupt[..., :16, :] += 0.5                              # wrong where the weight is 0
+    weight = torch.ones(48, 48)
+    weight[:16] = 0
+    fitted = fit_sprites([a, b], [ta, corrupt], [None, weight], side=8, iters=80, ridge=1e-6)
+    for sampler, target in ((a, ta), (b, tb)):
+        err = (sampler.render(fitted) - target).pow(2).mean()
+        assert err < 1e-3 * target.pow(2).mean()
+    unweighted = fit_sprites([a, b], [ta, corrupt], None, side=8, iters=80, ridge=1e-6)
+    assert (b.render(unweighted) - tb).pow(2).mean() > 100 * (b.render(fitted) - tb).pow(2).mean()
+    single = fit_sprites([a], [ta], None, side=8, iters=80, ridge=1e-6)
+    torch.testing.assert_close(single, a.fit(ta, side=8, iters=80, ridge=1e-6))
 
 
 def test_detail_turns_with_its_texton():

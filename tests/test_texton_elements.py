@@ -11,6 +11,7 @@ from neuraltex.texton_elements import (
     move_elements,
     reshuffle_elements,
     shape_classes,
+    swapped_layout,
 )
 from neuraltex.textons import Textons
 
@@ -111,3 +112,63 @@ def test_reshuffle_by_elements_draws_the_ground_behind_and_keeps_objects_whole()
     assert (out.order[0, :4] < out.order[0, 4:].min()).all()
     assert torch.equal(out.f[0, 4:], t.f[0, 4:])  # objects keep their own features
     assert sorted(out.f[0, :4, 0].tolist()) == [0, 1, 2, 3]  # ground trades among itself
+
+
+def test_a_rim_around_an_object_joins_it_but_a_neighbour_does_not():
+    """A coin's rim is a segment of its own at any scale; it lies within a quarter radius of
+    the face it surrounds, so it joins the face's element. A whole object beside it does not."""
+    n = 64
+    yy, xx = np.mgrid[0:n, 0:n]
+    r = np.hypot(yy - 24, xx - 24)
+    image = torch.full((3, n, n), 0.2)
+    labels = np.zeros((n, n), np.int64)                     # ground
+    face, rim = r < 10, (r >= 10) & (r < 12.5)
+    near = (np.abs(yy - 24) < 6) & (np.abs(xx - 50) < 6)    # a square 14 px to the right
+    for k, (m, c) in enumerate([(face, 0.9), (rim, 0.5), (near, 0.9)], start=1):
+        image[:, torch.from_numpy(m)] = c
+        labels[m] = k
+    groups = group_textons(image, labels)
+    assert groups[1] == groups[2]          # rim with face
+    assert groups[3] != groups[1]          # the neighbour is its own element
+    assert groups[0] not in (groups[1], groups[3])
+
+
+def test_shape_classes_group_areas_within_the_ratio_without_bin_edges():
+    from neuraltex.texton_elements import ElementShapes
+
+    area = np.array([100.0, 101.0, 108.0, 130.0, 5000.0])
+    shapes = ElementShapes(area=area, centre=np.zeros((5, 2)), elongation=np.ones(5),
+                           angle=np.zeros(5), sides=np.zeros(5, np.int64),
+                           background=np.array([False] * 4 + [True]))
+    c = shape_classes(shapes, size_ratio=1.1)
+    assert c[0] == c[1] == c[2]            # 100, 101 and 108: within 1.1 of 100
+    assert c[3] != c[0] and c[4] == -1     # 130 is not; the background never trades
+    assert shape_classes(shapes, size_ratio=1.5)[3] == c[0]
+
+
+def test_a_swapped_layout_pastes_the_moved_objects_and_masks_what_nobody_covers():
+    image, labels = scene()
+    image[:, 28:40, 8:20] = torch.tensor([0.9, 0.2, 0.9])[:, None, None]
+    image[:, 30:34, 30:34] = 0.0       # a dark spot inside the fourth square
+    groups = group_textons(image, labels)
+    t = textons_of(labels)
+    moved, target, known = swapped_layout(image, labels, groups, t, seed=3)
+    shift = (moved.mu - t.mu)[0] * W   # pixels
+    assert torch.equal(shift[:4], torch.zeros(4, 2)) and shift.abs().sum() > 0
+    torch.testing.assert_close(shift, shift.round(), atol=1e-4, rtol=0)  # whole pixels
+    for i, (y, x) in enumerate(SQUARES):
+        dx, dy = shift[4 + 2 * i].round().long().tolist()
+        torch.testing.assert_close(target[:, y + dy:y + dy + 12, x + dx:x + dx + 12],
+                                   image[:, y:y + 12, x:x + 12])
+    assert known.min() == 1            # equal squares: every left place is filled again
+    assert torch.equal(target[:, :8], image[:, :8])  # the ground stays as it was
+    # one square a column narrower (132 px: the same class at 1.1): where it lands, the
+    # column of the wider square it replaces is unknown
+    labels[28:40, 19] = 2
+    image[:, 28:40, 19] = 0.5
+    groups = group_textons(image, labels)
+    for seed in range(20):
+        moved, _, known = swapped_layout(image, labels, groups, textons_of(labels), seed=seed)
+        if (moved.mu - textons_of(labels).mu)[0, labels[30, 10]].abs().sum() > 0:
+            break
+    assert (known == 0).sum() == 12 and known.max() == 1

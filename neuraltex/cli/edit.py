@@ -110,7 +110,7 @@ def cmd_reshuffle(args: argparse.Namespace) -> int:
     the background layer keeping its own (--by textons)."""
     from neuraltex.imageio import numbered
     from neuraltex.reshuffle import reshuffle
-    from neuraltex.texton_elements import reshuffle_elements
+    from neuraltex.texton_elements import SIZE_RATIO, reshuffle_elements
     from neuraltex.texton_kinds import texton_kinds
 
     paths = numbered(args.output, args.count)
@@ -127,7 +127,7 @@ def cmd_reshuffle(args: argparse.Namespace) -> int:
         seed = None if args.seed is None else args.seed + i
         if by_elements:
             out = reshuffle_elements(textons, tex.labels, tex.elements, channels=plain,
-                                     seed=seed)
+                                     seed=seed, size_ratio=args.size_ratio or SIZE_RATIO)
         else:
             out = reshuffle(textons, seed=seed, kinds=kinds)
         common.save(_decode(args, decoder, out, tex.short), path)
@@ -318,6 +318,10 @@ def add_commands(sub) -> None:
                    help="elements: whole objects of a texture file trade places (default; "
                    "images and texton files have no elements and use textons); textons: "
                    "appearance features trade places between textons of one kind")
+    p.add_argument("--size-ratio", type=types.number(1, 4), default=None,
+                   help="with --by elements: elements trade places only with elements whose "
+                   "area is within this factor, 1 to 4 (default 1.1; larger moves more objects "
+                   "and shows more seams where an object replaces a larger one)")
 
     p = cmd(sub, "interpolate", cmd_interpolate, "blend two textures", "image",
             f"{img}; with --frames {FRAMES_OUT}")
