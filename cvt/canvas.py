@@ -253,8 +253,8 @@ def _thin(placed, boxes, kinds, k, gap, want, out_box, inside, torus=None,
     np.fill_diagonal(inter, 0)
     all_mb = moved_boxes(placed, boxes)
     kk = kinds[[p[0] for p in placed]]
-    hosting = touches(all_mb, torus=torus).any(0)[on]  # touching others: last
-    unit = pair_units(all_mb, kk, companions or {}, torus)  # (P,)
+    hosting = touches(all_mb, torus=torus, cols=on).any(0)  # touching others: last
+    unit = pair_units(all_mb, kk, companions, torus) if companions else np.arange(len(placed))
     gap = dict(gap)
     alive = np.ones(len(placed), bool)
     while True:
