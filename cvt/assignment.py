@@ -137,7 +137,8 @@ def add_missing(out: Samples, m: Matches, inp: Samples, in_nbr: torch.Tensor, de
     # Overlapping output neighborhoods: output samples within r of the place (seed 001 eq. 16
     # denominator).
     near = torch.cdist(place, out.pos) if torus is None else torus.cdist(place, out.pos)  # (P, N)
-    overlap = (near <= radius).sum(1).clamp_min(1)
+    # counted in row chunks: summing a (P, N) bool casts it whole to int64 first
+    overlap = torch.cat([(c <= radius).sum(1) for c in near.split(1024)]).clamp_min(1)
     xi = counts / overlap
     keep = (xi > threshold) & (near.min(1).values >= min_gap * delta)
     keep_idx = torch.nonzero(keep).flatten()

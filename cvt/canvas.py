@@ -16,6 +16,7 @@ from collections.abc import Callable
 
 import numpy as np
 
+from cvt.free_spot import emptiest_spot
 from cvt.torus import images, periodic_max
 
 Placed = tuple[int, float, float]  # (element, dx, dy)
@@ -210,7 +211,8 @@ def _centred(placed, boxes, kinds, k, out_box, inside) -> np.ndarray:
 
 def _emptiest(placed, boxes, box, out_box, rng, inside, torus=None
               ) -> tuple[float, float] | None:
-    """Translation putting ``box`` where it has the most clearance to every placed box."""
+    """Translation putting ``box`` where it overlaps the placed boxes least and, among such
+    spots, has the most clearance to them (cvt.free_spot)."""
     x0, y0, x1, y1 = out_box
     centre = (box[:2] + box[2:]) / 2
     half = (box[2:] - box[:2]) / 2
@@ -219,16 +221,7 @@ def _emptiest(placed, boxes, box, out_box, rng, inside, torus=None
         spots = spots[inside(spots)]
     if not len(spots):
         return None
-    if placed:
-        mb = images(moved_boxes(placed, boxes), torus)  # (P, 4), x 9 on a torus
-        gap = np.maximum(np.abs(spots[:, None] - (mb[None, :, :2] + mb[None, :, 2:]) / 2)
-                         - half - (mb[None, :, 2:] - mb[None, :, :2]) / 2, 0)  # (S, P, 2)
-        clear = np.linalg.norm(gap, axis=2).min(1)  # (S,)
-        over = np.clip(np.minimum(spots[:, None] + half, mb[None, :, 2:])
-                       - np.maximum(spots[:, None] - half, mb[None, :, :2]), 0, None).prod(-1)
-        best = int(np.lexsort((-clear, over.sum(1)))[0])
-    else:
-        best = 0
+    best = emptiest_spot(spots, half, images(moved_boxes(placed, boxes), torus)) if placed else 0
     d = spots[best] - centre
     return float(d[0]), float(d[1])
 
@@ -260,8 +253,8 @@ def _thin(placed, boxes, kinds, k, gap, want, out_box, inside, torus=None,
     np.fill_diagonal(inter, 0)
     all_mb = moved_boxes(placed, boxes)
     kk = kinds[[p[0] for p in placed]]
-    hosting = touches(all_mb, torus=torus).any(0)[on]  # touching others: last
-    unit = pair_units(all_mb, kk, companions or {}, torus)  # (P,)
+    hosting = touches(all_mb, torus=torus, cols=on).any(0)  # touching others: last
+    unit = pair_units(all_mb, kk, companions, torus) if companions else np.arange(len(placed))
     gap = dict(gap)
     alive = np.ones(len(placed), bool)
     while True:

@@ -16,13 +16,16 @@ import numpy as np
 SHARE = 0.8
 
 
-def touches(b: np.ndarray, share: float = 0.1, torus=None) -> np.ndarray:
+def touches(b: np.ndarray, share: float = 0.1, torus=None,
+            cols: np.ndarray | None = None) -> np.ndarray:
     """Boxes i and j share >= ``share`` of the smaller one (i != j; on a ``torus``, cvt.torus,
-    across the seam too). Shape: (N, 4) -> (N, N)."""
+    across the seam too); with ``cols``, only the columns j in ``cols``.
+    Shape: (N, 4) -> (N, N), or (N, C) for cols (C,)."""
     from cvt.torus import periodic_max
 
-    out = periodic_max(lambda p, q: _touch(p, q, share), b, b, torus)
-    np.fill_diagonal(out, False)
+    cols = np.arange(len(b)) if cols is None else np.asarray(cols)
+    out = periodic_max(lambda p, q: _touch(p, q, share), b, b[cols], torus)
+    out[cols, np.arange(len(cols))] = False
     return out
 
 

@@ -119,3 +119,17 @@ def test_pairs_settle_between_the_rates_of_their_kinds():
                          companions=pairs)
     n = np.bincount([kinds[e] for e, _, _ in out], minlength=2)
     assert n[0] == n[1] == 9  # 15 pairs thinned to 9: -10 % and +12.5 %
+
+
+def test_touches_columns_are_those_of_the_full_matrix():
+    from cvt.companions import touches
+    from cvt.torus import Torus
+
+    rng = np.random.default_rng(3)
+    lo = rng.uniform(0, 10, (120, 2))
+    b = np.c_[lo, lo + rng.uniform(0.2, 2, (120, 2))]
+    cols = np.array([0, 5, 7, 64, 119])
+    for torus in (None, Torus.of((0, 0, 10, 10))):
+        full = touches(b, torus=torus)
+        assert full.any() and not full.diagonal().any()
+        assert np.array_equal(touches(b, torus=torus, cols=cols), full[:, cols])

@@ -84,3 +84,41 @@ def test_pruned_bounds_are_exact_below_the_bound_and_never_exceed_the_distance()
     torch.testing.assert_close(lb[below], full[below])
     assert (lb[~below] >= bound[~below] - 1e-9).all()  # pruned: partial bound reached it
     assert (lb <= d + 1e-9).all()
+
+
+def _slow_lower_bounds(sp, o, i):
+    """Per pair, from scratch: the center term plus each output neighbour's cheapest clamped
+    match (eq. 3), padded rows excluded (the reference of pruned_lower_bounds)."""
+    out = []
+    for a, b in zip(o.tolist(), i.tolist(), strict=True):
+        on, inn = sp.out_nbr[a], sp.in_nbr[b]
+        rel_o = sp.out_pos[on] - sp.out_pos[a]
+        if sp.torus is not None:
+            rel_o = torch.where((on >= 0)[:, None], sp.torus.diff(rel_o), rel_o)
+        rel_i = sp.in_pos[inn] - sp.in_pos[b]
+        cost = torch.cdist(rel_o / sp.p.delta, rel_i / sp.p.delta)
+        cost = (cost + sp.table[on][:, inn]).clamp(max=sp.p.c_out)
+        out.append(float(sp.table[a, b] + cost.min(1).values[on >= 0].sum()))
+    return torch.tensor(out, dtype=sp.table.dtype)
+
+
+@pytest.mark.parametrize("tileable", [False, True])
+def test_pruned_bounds_equal_the_full_bound_below_the_bound(tileable):
+    from cvt.torus import Torus
+
+    out_pos, out_feat = _random_set(90, 5)
+    in_pos, in_feat = _random_set(60, 6)
+    torus = Torus.of((0, 0, 60, 60)) if tileable else None
+    sp = pair_space(out_pos, neighborhoods(out_pos, 14.0, 12, torus=torus), in_pos,
+                    neighborhoods(in_pos, 16.0, 14), chi2_table(out_feat, in_feat),
+                    DistanceParams(delta=5.0), torus)
+    g = torch.Generator().manual_seed(1)
+    o, i = torch.randint(0, 90, (300,), generator=g), torch.randint(0, 60, (300,), generator=g)
+    full = lower_bound(*cost_matrices(sp, o, i))
+    torch.testing.assert_close(full, _slow_lower_bounds(sp, o, i))
+    bound = full.quantile(0.7).expand(300).clone()
+    bound[::7] = 0.0  # pairs whose center term alone reaches the bound
+    lb = pruned_lower_bounds(sp, o, i, bound)
+    below = full < bound
+    assert below.sum() > 100 and torch.equal(lb[below], full[below])  # the same floats
+    assert (lb[~below] >= bound[~below]).all()
