@@ -16,10 +16,12 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
+import numpy as np
 import torch
 
 from cvt.assignment import assign_positions
-from cvt.curves.edges import assign_edges
+from cvt.curves.edges import assign_edges, expected_degree
+from cvt.curves.ends import close_breaks, drop_broken
 from cvt.curves.existence import existence, missing_samples
 from cvt.curves.graph import CurveGraph, nearest_edges
 from cvt.curves.init import box_inside, patch_init
@@ -53,6 +55,9 @@ class CurveConfig:
     passes: int = 2
     huber: float = 1.0
     reach: float = 2.2  # candidate edges join samples closer than this many deltas
+    end_reach: float = 4.0  # unwanted stroke ends join within this many deltas (ends.py)
+    fragment: int = 6  # broken-off fragments shorter than this many samples go (ends.py)
+    init_candidates: int = 16  # patches tried per init cell (init.py)
     seed: int = 0
     threads: int = 1
 
@@ -112,7 +117,8 @@ def run_boxed(cx: CurveExemplar, out_box, cfg: CurveConfig, inside: Inside | Non
     levels = [cfg.level(cx.exemplar.size, k) for k in range(cfg.levels)]
     res = CurveResult(CurveGraph.empty(cx.styles), size, levels[-1].delta)
     res.inputs = [exemplar_graph(cx, lv.delta) for lv in levels]
-    out = patch_init(res.inputs[0], cx.box, out_box, 2 * levels[0].radius, domain, gen)
+    out = patch_init(res.inputs[0], cx.box, out_box, 2 * levels[0].radius, domain, gen,
+                     cfg.init_candidates)
     for li, lv in enumerate(levels):
         held = fixed(lv.delta) if fixed is not None else None
         out = _drop_near(out, held, lv.delta) if held is not None else out
@@ -152,18 +158,29 @@ def _run_level(li: int, s: _Level, out: CurveGraph, cfg: CurveConfig, gen, res: 
             break
         passes = cfg.first_passes if it == 0 else cfg.passes
         m = _search(out, s, cfg, field_, passes, gen)
-        out = _assign(out, m, s, cfg)
+        out, want = _assign(out, m, s, cfg)
         field_ = m.center
         res.energies.append((li, it, m.energy))
         if it + 1 < cfg.iterations:
             out, field_ = _existence(out, m, s, field_)
         else:  # the domain constraint also holds after the last move
+            if cfg.connectivity:
+                out = drop_broken(out, want, cfg.fragment, keep=s.n_fixed,
+                                  rim=_rim(out.pos, s.inside, 2 * s.lv.delta))
             keep = s.inside(out.pos)
             keep[: s.n_fixed] = True
             out = out.select(torch.nonzero(keep).flatten())
         if on_iteration is not None:
             on_iteration(li, it, out, m.energy)
     return out
+
+
+def _rim(pos: torch.Tensor, inside: Inside, margin: float) -> np.ndarray:
+    """Samples within ``margin`` of the domain border. Shape: (N, 2) -> (N,) bool."""
+    ok = torch.ones(len(pos), dtype=torch.bool)
+    for d in ((margin, 0.0), (-margin, 0.0), (0.0, margin), (0.0, -margin)):
+        ok &= inside(pos + torch.tensor(d, dtype=pos.dtype))
+    return (~ok).numpy()
 
 
 def _search(out: CurveGraph, s: _Level, cfg: CurveConfig, field_, passes: int, gen):
@@ -177,16 +194,19 @@ def _search(out: CurveGraph, s: _Level, cfg: CurveConfig, field_, passes: int, g
     return patchmatch(sp, grid, field_, SearchParams(passes=passes), window0, gen)
 
 
-def _assign(out: CurveGraph, m, s: _Level, cfg: CurveConfig) -> CurveGraph:
-    """Positions by least squares (eqs. 14-15), then edges (eqs. 17-22)."""
+def _assign(out: CurveGraph, m, s: _Level, cfg: CurveConfig):
+    """Positions by least squares (eqs. 14-15), then edges (eqs. 17-22) with the breaks the
+    matched neighborhoods do not back closed (cvt.curves.ends). Returns the graph and the
+    expected degrees (eq. 18). Shape: -> CurveGraph, (N,)."""
     pos = assign_positions(out.pos, m, s.inp.pos, huber=cfg.huber * s.lv.delta)
     pos[: s.n_fixed] = out.pos[: s.n_fixed]
     out = out.with_(pos=pos, style=_voted_style(out, m, s))
-    if cfg.connectivity:
-        edges = assign_edges(m, out, s.inp, cfg.reach * s.lv.delta, keep=s.fixed_edges)
-    else:  # the no-connectivity baseline: samples only, joined to their nearest afterwards
-        edges = nearest_edges(out, 1.6 * s.lv.delta)
-    return out.with_(edges=edges)
+    want = expected_degree(m, out, s.inp).numpy()
+    if not cfg.connectivity:  # the no-connectivity baseline: samples joined to their nearest
+        return out.with_(edges=nearest_edges(out, 1.6 * s.lv.delta)), want
+    out = out.with_(edges=assign_edges(m, out, s.inp, cfg.reach * s.lv.delta,
+                                       keep=s.fixed_edges))
+    return close_breaks(out, want, cfg.end_reach * s.lv.delta), want
 
 
 def _voted_style(out: CurveGraph, m, s: _Level) -> torch.Tensor:
