@@ -7,9 +7,12 @@ does not have. Such *unwanted ends* are resolved with local evidence only (no gl
 
 1. two unwanted ends facing each other within ``reach`` are joined, nearest pairs first (a
    break closed; a loop whose two ends meet is closed again);
-2. an unwanted end facing a stroke sample ahead whose own expected degree says junction
+2. the two unwanted ends of one open stroke (both ends of a simple path of at least
+   ``3 min_loop`` samples) within twice ``reach`` are joined: a closed stroke that the
+   synthesis left open is closed again;
+3. an unwanted end facing a stroke sample ahead whose own expected degree says junction
    (>= 2.5) runs on into it (a T-junction the exemplar has there);
-3. (``drop_broken``) open fragments short of ``longest`` samples whose ends are both unwanted
+4. (``drop_broken``) open fragments short of ``longest`` samples whose ends are both unwanted
    are removed (broken-off pieces of stroke), and so are spurs (end -> junction) that short
    from an unwanted end (stubs of a broken stroke).
 
@@ -91,9 +94,33 @@ def unwanted_ends(g: CurveGraph, want: np.ndarray) -> np.ndarray:
     return np.flatnonzero((deg == 1) & (g.kind.numpy() < 0) & (want >= WANT_STROKE))
 
 
+def _other_end(nbr: list[list[int]], v: int) -> tuple[int, int]:
+    """The far end of the chain of degree-2 samples from end ``v``, and its length in
+    samples; (-1, n) when the chain stops at a junction."""
+    prev, cur, n = v, nbr[v][0], 2
+    while len(nbr[cur]) == 2:
+        prev, cur, n = cur, nbr[cur][0] if nbr[cur][0] != prev else nbr[cur][1], n + 1
+        if cur == v:
+            return -1, n
+    return (cur if len(nbr[cur]) == 1 else -1), n
+
+
+def _reclose(pos, nbr, ends, done: set[int], reach: float, shortest: int
+             ) -> list[tuple[int, int]]:
+    """Both unwanted ends of one long open path, closer than ``reach``, joined."""
+    bad = set(ends.tolist()) - done
+    new = []
+    for v in sorted(bad):
+        w, n = _other_end(nbr, v)
+        if (w > v and w in bad and n >= shortest
+                and np.linalg.norm(pos[v] - pos[w]) < reach):
+            new.append((v, w))
+    return new
+
+
 def close_breaks(g: CurveGraph, want: np.ndarray, reach: float, facing: float = 0.3,
                  min_loop: int = 6) -> CurveGraph:
-    """Steps 1 and 2 above. ``want`` (N,): eq. 18 expected degrees. Two ends of one stroke
+    """Steps 1 to 3 above. ``want`` (N,): eq. 18 expected degrees. Two ends of one stroke
     are only joined when ``min_loop`` or more edges apart (no tiny loops)."""
     ends = unwanted_ends(g, want)
     if len(ends) == 0:
@@ -102,6 +129,7 @@ def close_breaks(g: CurveGraph, want: np.ndarray, reach: float, facing: float = 
     away = outward(pos, nbr, ends)
     new = [(a, b) for a, b in facing_pairs(pos, ends, away, reach, facing)
            if b not in _hops(nbr, a, min_loop)]
+    new += _reclose(pos, nbr, ends, {v for e in new for v in e}, 2 * reach, 3 * min_loop)
     done = {v for e in new for v in e}
     rest = np.array([k for k, v in enumerate(ends) if v not in done], dtype=int)
     if len(rest):
