@@ -69,10 +69,11 @@ def _hops(nbr: list[list[int]], v: int, hops: int) -> set[int]:
     return seen
 
 
-def _run_on(pos, nbr, want, curve, ends, away, reach: float, facing: float
-            ) -> list[tuple[int, int]]:
-    """Each end joined to the nearest wanted-junction sample ahead of it (not its own stroke
-    nearby)."""
+def run_on(pos: np.ndarray, nbr: list[list[int]], target: np.ndarray, ends: np.ndarray,
+           away: np.ndarray, reach: float, facing: float) -> list[tuple[int, int]]:
+    """Each end joined to the nearest ``target`` (N,) bool sample ahead of it within ``reach``
+    and acos(``facing``) of its outward direction ``away`` (M, 2), not its own stroke
+    nearby: a T-junction."""
     tree, new = cKDTree(pos), []
     for v, a in zip(ends.tolist(), away, strict=True):
         own = _hops(nbr, v, 4)
@@ -80,8 +81,7 @@ def _run_on(pos, nbr, want, curve, ends, away, reach: float, facing: float
         for c in tree.query_ball_point(pos[v], reach):
             d = pos[c] - pos[v]
             dist = max(float(np.linalg.norm(d)), 1e-12)
-            if (c not in own and curve[c] and want[c] >= WANT_JUNCTION
-                    and d @ a / dist > facing and dist < best_d):
+            if c not in own and target[c] and d @ a / dist > facing and dist < best_d:
                 best, best_d = c, dist
         if best is not None:
             new.append((v, best))
@@ -133,8 +133,8 @@ def close_breaks(g: CurveGraph, want: np.ndarray, reach: float, facing: float = 
     done = {v for e in new for v in e}
     rest = np.array([k for k, v in enumerate(ends) if v not in done], dtype=int)
     if len(rest):
-        new += _run_on(pos, nbr, want, g.kind.numpy() < 0, ends[rest], away[rest], reach,
-                       facing)
+        target = (g.kind.numpy() < 0) & (want >= WANT_JUNCTION)
+        new += run_on(pos, nbr, target, ends[rest], away[rest], reach, facing)
     if not new:
         return g
     return g.with_edges(torch.cat([g.edges, torch.tensor(new, dtype=torch.long)]))
