@@ -37,11 +37,13 @@ def _mismatch(placed: np.ndarray, ctx: np.ndarray, scale: float) -> float:
 
 
 def _choose(inp_pos: np.ndarray, placed: np.ndarray, cell, patch, band: float,
-            starts: np.ndarray) -> int:
-    """The start whose exemplar surroundings (a ``band`` left of and above the patch) best
-    match the samples already placed there (sec. 4.3.2). ``starts`` (K, 2)."""
+            starts: np.ndarray, origin) -> int:
+    """The start whose exemplar surroundings (a ``band`` left of and above the patch, inside
+    the output from ``origin`` on) best match the samples already placed there (sec. 4.3.2).
+    ``starts`` (K, 2)."""
     cx0, cy0 = cell
-    lo, hi = np.array([cx0 - band, cy0 - band]), np.array([cx0 + patch[0], cy0 + patch[1]])
+    lo = np.maximum([cx0 - band, cy0 - band], origin)
+    hi = np.array([cx0 + patch[0], cy0 + patch[1]])
     ring = (placed >= lo).all(1) & (placed < hi).all(1) & \
         ~((placed[:, 0] >= cx0) & (placed[:, 1] >= cy0))
     ref = placed[ring]
@@ -72,7 +74,7 @@ def patch_init(inp: CurveGraph, in_box, out_box, patch: float, inside, gen: torc
             starts = np.c_[ix0 + u[:, 0] * (ix1 - ix0 - pw), iy0 + u[:, 1] * (iy1 - iy0 - ph)]
             cell = (ox0 + gx * pw, oy0 + gy * ph)
             k = _choose(in_pos, out.pos.numpy(), cell, (pw, ph), 0.5 * patch,
-                        starts) if candidates > 1 else 0
+                        starts, (ox0, oy0)) if candidates > 1 else 0
             sx, sy = starts[k]
             idx = torch.nonzero((inp.pos[:, 0] >= sx) & (inp.pos[:, 0] < sx + pw)
                                 & (inp.pos[:, 1] >= sy) & (inp.pos[:, 1] < sy + ph)).flatten()
