@@ -32,9 +32,13 @@ def test_a_break_inside_a_stroke_is_closed_only_where_the_matches_say_stroke():
     assert len(close_breaks(g, _want(g, 2.0), reach=4.0).edges) == len(g.edges)
 
 
-def test_ends_pointing_away_are_not_joined():
-    g = _graph([[[45, 50], [0, 50]], [[45, 53], [100, 53]]])  # side by side, not facing
-    assert len(close_breaks(g, _want(g, 2.0), reach=8.0).edges) == len(g.edges)
+def test_ends_pointing_away_are_not_joined_tips_side_by_side_are():
+    g = _graph([[[45, 50], [100, 50]], [[51, 56], [0, 56]]])  # 8.5 apart, pointing away
+    assert len(close_breaks(g, _want(g, 2.0), reach=10.0).edges) == len(g.edges)
+    tip = _graph([[[0, 50], [45, 50]], [[0, 53], [45, 53]]])  # a peninsula without its tip
+    fixed = close_breaks(tip, _want(tip, 2.0), reach=8.0)
+    assert len(fixed.edges) == len(tip.edges) + 2  # both tips (x = 0 and 45)
+    assert len(close_breaks(tip, _want(tip, 2.0), reach=4.0).edges) == len(tip.edges)
 
 
 def test_an_open_loop_is_closed_again():

@@ -6,7 +6,8 @@ its neighborhoods matched sit inside strokes (expected degree >= 1.5): a break t
 does not have. Such *unwanted ends* are resolved with local evidence only (no global target):
 
 1. two unwanted ends facing each other within ``reach`` are joined, nearest pairs first (a
-   break closed; a loop whose two ends meet is closed again);
+   break closed; a loop whose two ends meet is closed again); two side by side within half
+   ``reach``, whatever their directions, too (the lost tip of a thin U-turn, a peninsula);
 2. the two unwanted ends of one open stroke (both ends of a simple path of at least
    ``3 min_loop`` samples) within twice ``reach`` are joined: a closed stroke that the
    synthesis left open is closed again;
@@ -129,6 +130,11 @@ def close_breaks(g: CurveGraph, want: np.ndarray, reach: float, facing: float = 
     away = outward(pos, nbr, ends)
     new = [(a, b) for a, b in facing_pairs(pos, ends, away, reach, facing)
            if b not in _hops(nbr, a, min_loop)]
+    done = {v for e in new for v in e}
+    left = np.array([k for k, v in enumerate(ends) if v not in done], dtype=int)
+    if len(left) > 1:
+        new += [(a, b) for a, b in facing_pairs(pos, ends[left], away[left], reach / 2, -1.01)
+                if b not in _hops(nbr, a, min_loop)]
     new += _reclose(pos, nbr, ends, {v for e in new for v in e}, 2 * reach, 3 * min_loop)
     done = {v for e in new for v in e}
     rest = np.array([k for k, v in enumerate(ends) if v not in done], dtype=int)

@@ -28,6 +28,7 @@ from cvt.curves.init import box_inside, patch_init
 from cvt.curves.reconstruction import trace_paths
 from cvt.curves.sampling import exemplar_graph, stroke_graph
 from cvt.curves.similarity import edge_embedding, feature_table
+from cvt.curves.spacing import curve_levels
 from cvt.curves.strokes import CurveExemplar, Stroke
 from cvt.neighborhood import DistanceParams, neighborhoods, pair_space
 from cvt.sampling import Level
@@ -58,6 +59,9 @@ class CurveConfig:
     end_reach: float = 4.0  # unwanted stroke ends join within this many deltas (ends.py)
     fragment: int = 6  # broken-off fragments shorter than this many samples go (ends.py)
     init_candidates: int = 16  # patches tried per init cell (init.py)
+    detail_turn: float = 1.0  # finer spacings for strokes turning faster (spacing.py; 0: off)
+    max_halvings: int = 2
+    max_exemplar: int = 3000  # finest exemplar samples the finer spacing may reach
     seed: int = 0
     threads: int = 1
 
@@ -114,7 +118,7 @@ def run_boxed(cx: CurveExemplar, out_box, cfg: CurveConfig, inside: Inside | Non
     gen = torch.Generator().manual_seed(cfg.seed)
     size = (out_box[2] - out_box[0], out_box[3] - out_box[1])
     domain = box_inside(out_box, inside)
-    levels = [cfg.level(cx.exemplar.size, k) for k in range(cfg.levels)]
+    levels = curve_levels(cx, cfg)
     res = CurveResult(CurveGraph.empty(cx.styles), size, levels[-1].delta)
     res.inputs = [exemplar_graph(cx, lv.delta) for lv in levels]
     out = patch_init(res.inputs[0], cx.box, out_box, 2 * levels[0].radius, domain, gen,
