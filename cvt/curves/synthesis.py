@@ -3,7 +3,10 @@ edges and existence) x iterations x levels -> paths.
 
 Search and position assignment are cvt's (``neighborhoods``, ``pair_space``, ``patchmatch``,
 ``assign_positions``) with the curve attributes in the feature table (cvt.curves.similarity);
-edges and existence follow eqs. 16-22 (cvt.curves.edges, cvt.curves.existence). Each level
+edges and existence follow eqs. 16-22 (cvt.curves.edges, cvt.curves.existence); stroke ends
+the matched neighborhoods do not back are closed after every edge assignment, and broken
+fragments dropped after each level's last (cvt.curves.ends). The spacings come from
+cvt.curves.spacing (finer for finely detailed strokes). Each level
 after the first starts from the previous level's paths re-sampled at the finer spacing. The
 domain constraint (eqs. 13, 15) is a predicate ``inside``: samples that leave the domain are
 dropped and missing samples are only added inside it. A ``fixed`` graph (autocomplete: what the
