@@ -64,7 +64,7 @@ class CurveConfig:
     init_candidates: int = 16  # patches tried per init cell (init.py)
     detail_turn: float = 1.0  # finer spacings for strokes turning faster (spacing.py; 0: off)
     max_halvings: int = 2
-    max_exemplar: int = 3000  # finest exemplar samples the finer spacing may reach
+    max_exemplar: int = 1500  # finest exemplar samples the finer spacing may reach
     seed: int = 0
     threads: int = 1
 
