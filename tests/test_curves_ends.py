@@ -4,7 +4,7 @@ similarity (cvt.curves.init) and the before / after stages of the eval (cvt.curv
 import numpy as np
 import torch
 
-from cvt.curves.ends import close_breaks, drop_broken, unwanted_ends
+from cvt.curves.ends import close_breaks, drop_broken, end_evidence, unwanted_ends
 from cvt.curves.graph import StrokeStyle
 from cvt.curves.init import patch_init
 from cvt.curves.sampling import stroke_graph
@@ -90,3 +90,9 @@ def test_init_patches_continue_their_left_neighbour():
 
     chosen = np.mean([misfit(16, seed) for seed in range(6)])
     assert chosen < 1.0 and np.mean([misfit(1, seed) for seed in range(6)]) > 2.5 * chosen
+
+
+def test_an_end_matched_to_an_input_end_is_wanted():
+    want = np.array([2.0, 1.8, 2.0])
+    capped = end_evidence(want, np.array([2, 1, 3]))
+    assert capped.tolist() == [2.0, 1.0, 2.0]

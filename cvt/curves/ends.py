@@ -3,7 +3,8 @@ the expected degree of eq. 18; sec. 4.4: no dangling stubs the exemplar does not
 
 After the greedy eq. 22 an output sample can be left with degree 1 although the input samples
 its neighborhoods matched sit inside strokes (expected degree >= 1.5): a break the exemplar
-does not have. Such *unwanted ends* are resolved with local evidence only (no global target):
+does not have — unless the sample's own neighborhood matched an input end (``end_evidence``).
+Such *unwanted ends* are resolved with local evidence only (no global target):
 
 1. two unwanted ends facing each other within ``reach`` are joined, nearest pairs first (a
    break closed; a loop whose two ends meet is closed again); two side by side within half
@@ -87,6 +88,12 @@ def run_on(pos: np.ndarray, nbr: list[list[int]], target: np.ndarray, ends: np.n
         if best is not None:
             new.append((v, best))
     return new
+
+
+def end_evidence(want: np.ndarray, center_degree: np.ndarray) -> np.ndarray:
+    """Expected degrees (eq. 18) capped at 1 where the sample's own neighborhood center was
+    matched to an input end. Shape: (N,), (N,) -> (N,)."""
+    return np.where(center_degree == 1, np.minimum(want, 1.0), want)
 
 
 def unwanted_ends(g: CurveGraph, want: np.ndarray) -> np.ndarray:

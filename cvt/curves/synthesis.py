@@ -24,7 +24,7 @@ import torch
 
 from cvt.assignment import assign_positions
 from cvt.curves.edges import assign_edges, expected_degree
-from cvt.curves.ends import close_breaks, drop_broken
+from cvt.curves.ends import close_breaks, drop_broken, end_evidence
 from cvt.curves.existence import existence, missing_samples
 from cvt.curves.graph import CurveGraph, nearest_edges
 from cvt.curves.init import box_inside, patch_init
@@ -208,7 +208,8 @@ def _assign(out: CurveGraph, m, s: _Level, cfg: CurveConfig):
     pos = assign_positions(out.pos, m, s.inp.pos, huber=cfg.huber * s.lv.delta)
     pos[: s.n_fixed] = out.pos[: s.n_fixed]
     out = out.with_(pos=pos, style=_voted_style(out, m, s))
-    want = expected_degree(m, out, s.inp).numpy()
+    want = end_evidence(expected_degree(m, out, s.inp).numpy(),
+                        s.inp.degree().numpy()[m.center.numpy()])
     if not cfg.connectivity:  # the no-connectivity baseline: samples joined to their nearest
         return out.with_(edges=nearest_edges(out, 1.6 * s.lv.delta)), want
     out = out.with_(edges=assign_edges(m, out, s.inp, cfg.reach * s.lv.delta,
