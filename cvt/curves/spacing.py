@@ -7,7 +7,9 @@ one δ, letters one or two δ tall — becomes a zigzag of samples at that spaci
 neighbourhoods no longer describe the strokes. When the 75th percentile of the turning angle
 between consecutive finest-level samples exceeds ``detail_turn`` radians, all spacings are
 halved (at most ``max_halvings`` times, and only while the finest exemplar graph stays under
-``max_exemplar`` samples). The shipped exemplars (p75 at most 0.7 rad) keep the defaults.
+``max_exemplar`` samples). The neighbourhood radii keep their extent (more samples per
+neighbourhood, the same context: with radii shrunk alike, the sparse map crops came out two to
+three times too dense). The shipped exemplars (p75 at most 0.7 rad) keep the defaults.
 """
 
 from __future__ import annotations
@@ -36,9 +38,10 @@ def detail_scale(cx: CurveExemplar, delta: float, detail_turn: float, max_halvin
 
 
 def curve_levels(cx: CurveExemplar, cfg) -> list[Level]:
-    """The hierarchy's (spacing, radius) per level, coarse first, for ``cfg`` (CurveConfig)."""
+    """The hierarchy's (spacing, radius) per level, coarse first, for ``cfg`` (CurveConfig);
+    finer spacings keep the default radii."""
     levels = [cfg.level(cx.exemplar.size, k) for k in range(cfg.levels)]
     if cfg.detail_turn <= 0:
         return levels
     f = detail_scale(cx, levels[-1].delta, cfg.detail_turn, cfg.max_halvings, cfg.max_exemplar)
-    return [Level(lv.delta * f, lv.radius * f) for lv in levels]
+    return [Level(lv.delta * f, lv.radius) for lv in levels]
