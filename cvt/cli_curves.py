@@ -72,6 +72,7 @@ def synthesize_curves(args, exemplar) -> int:
     from cvt.curves.baselines import run_curves
     from cvt.curves.reconstruction import curves_svg
     from cvt.curves.sampling import exemplar_graph
+    from cvt.curves.spacing import curve_levels
     from cvt.curves.strokes import curve_exemplar
     from cvt.curves.synthesis import CurveConfig
 
@@ -89,7 +90,7 @@ def synthesize_curves(args, exemplar) -> int:
     size = _output_size(args, exemplar)
     cfg = CurveConfig(levels=args.levels, iterations=args.iterations, seed=args.seed,
                       threads=args.threads)
-    fine = len(exemplar_graph(cx, cfg.level(exemplar.size, cfg.levels - 1).delta))
+    fine = len(exemplar_graph(cx, curve_levels(cx, cfg)[-1].delta))  # as synthesized
     est = fine * size[0] * size[1] / (exemplar.viewbox[2] * exemplar.viewbox[3])
     cap = getattr(args, "max_samples", None) or MAX_OUT_SAMPLES
     if est > cap:

@@ -77,3 +77,28 @@ def test_baselines_run(waves):
     for method in ("no-connectivity", "random"):
         g, delta = run_curves(method, waves, (200, 200), FAST)
         assert len(g) > 100 and delta > 0
+
+
+def test_eval_stages_before_and_after_the_end_repair(waves):
+    from cvt.curves.baselines import run_staged
+
+    run = run_staged("no-connectivity", waves, (200, 200), FAST)
+    assert run.delta > 0 and len(run.final) <= len(run.raw)  # the finish only prunes
+    inner = (run.raw.pos > 8).all(1) & (run.raw.pos < 192).all(1)
+    raw_ends = int(((run.raw.degree() == 1) & inner).sum())
+    inner = (run.final.pos > 8).all(1) & (run.final.pos < 192).all(1)
+    assert int(((run.final.degree() == 1) & inner).sum()) <= raw_ends
+
+
+def test_our_synthesis_resolves_unbacked_ends_itself(waves):
+    """Waves have no ends: with the end resolution (cvt.curves.ends) the synthesis leaves
+    fewer interior ends than without it (end_reach 0, no fragment removal)."""
+    from dataclasses import replace
+
+    def ends(cfg):
+        g = synthesize_curves(waves, (200, 200), cfg).graph
+        inner = (g.pos > 8).all(1) & (g.pos < 192).all(1)
+        return int(((g.degree() == 1) & inner).sum())
+
+    off = ends(replace(FAST, end_reach=0.0, fragment=0, init_candidates=1))
+    assert ends(FAST) < off

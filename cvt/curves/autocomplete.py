@@ -19,6 +19,7 @@ from cvt.curves.fairing import fair_like
 from cvt.curves.graph import CurveGraph
 from cvt.curves.init import box_inside
 from cvt.curves.sampling import stroke_graph
+from cvt.curves.spacing import curve_levels
 from cvt.curves.strokes import CurveExemplar, Stroke
 from cvt.curves.synthesis import CurveConfig, run_boxed
 
@@ -70,14 +71,15 @@ def autocomplete(cx: CurveExemplar, partial: CurveExemplar, box, config: CurveCo
     """Predict strokes inside ``box`` (x0, y0, x1, y1) around the ``partial`` drawing."""
     cfg = config or CurveConfig(levels=2)
     cx, strokes = user_strokes(cx, partial)
-    reach = 2 * cfg.level(cx.exemplar.size, 0).radius  # farther drawn samples change nothing
+    levels = curve_levels(cx, cfg)
+    reach = 2 * levels[0].radius  # farther drawn samples change nothing
     grown = (box[0] - reach, box[1] - reach, box[2] + reach, box[3] + reach)
 
     def drawn(delta: float) -> CurveGraph:
         g = stroke_graph(strokes, cx.styles, delta)
         return g.select(torch.nonzero(box_inside(grown)(g.pos)).flatten())
 
-    delta = cfg.level(cx.exemplar.size, cfg.levels - 1).delta
+    delta = levels[-1].delta
     fixed = len(drawn(delta))
     res = run_boxed(cx, box, cfg, None, drawn)
     g = repair_ends(res.graph, res.inputs[-1], cx.box, box, delta, keep=fixed)

@@ -12,7 +12,7 @@ reconstruction.
 
 from __future__ import annotations
 
-from dataclasses import replace
+from dataclasses import dataclass, replace
 
 import torch
 
@@ -27,9 +27,27 @@ from cvt.curves.synthesis import CurveConfig, Inside, synthesize_curves, upsampl
 METHODS = ("ours", "no-connectivity", "random")
 
 
+@dataclass
+class CurveRun:
+    """One method's output before the end repair (``raw``: the synthesized graph redrawn at
+    ``delta``, nothing pruned, joined or removed) and after the whole ``finish`` (``final``:
+    what the user gets)."""
+
+    raw: CurveGraph
+    final: CurveGraph
+    delta: float
+
+
 def run_curves(method: str, cx: CurveExemplar, size: tuple[float, float], cfg: CurveConfig,
                inside: Inside | None = None) -> tuple[CurveGraph, float]:
     """The final (pruned) output graph of ``method`` and the finest sampling distance."""
+    run = run_staged(method, cx, size, cfg, inside)
+    return run.final, run.delta
+
+
+def run_staged(method: str, cx: CurveExemplar, size: tuple[float, float], cfg: CurveConfig,
+               inside: Inside | None = None) -> CurveRun:
+    """``method``'s output before and after the shared finish."""
     x0, y0, _, _ = cx.box
     box = (x0, y0, x0 + size[0], y0 + size[1])
     if method == "random":
@@ -38,19 +56,22 @@ def run_curves(method: str, cx: CurveExemplar, size: tuple[float, float], cfg: C
         gen = torch.Generator().manual_seed(cfg.seed)
         out = patch_init(inp, cx.box, box, 2 * cfg.level(cx.exemplar.size, 0).radius,
                          box_inside(box, inside), gen)
-        return finish(out, inp, cx.box, box, lv.delta), lv.delta
-    if method == "no-connectivity":
-        cfg = replace(cfg, w_edge=0.0, connectivity=False)
-    elif method != "ours":
-        raise ValueError(f"method must be one of {METHODS}")
-    res = synthesize_curves(cx, size, cfg, inside)
-    return finish(res.graph, res.inputs[-1], cx.box, box, res.delta), res.delta
+        delta = lv.delta
+    else:
+        if method == "no-connectivity":
+            cfg = replace(cfg, w_edge=0.0, connectivity=False)
+        elif method != "ours":
+            raise ValueError(f"method must be one of {METHODS}")
+        res = synthesize_curves(cx, size, cfg, inside)
+        out, inp, delta = res.graph, res.inputs[-1], res.delta
+    raw = upsample(out, delta)
+    return CurveRun(raw, finish(raw, inp, cx.box, box, delta), delta)
 
 
-def finish(out: CurveGraph, inp: CurveGraph, in_box, out_box, delta: float) -> CurveGraph:
-    """The clean-up every method gets: the output redrawn as its SVG will read (its paths
-    re-sampled at ``delta``, crossings and touching ends joined, like the exemplar), stroke
-    spurs / specks pruned and stroke ends repaired to the exemplar's, strokes faired."""
-    g = prune(upsample(out, delta), inp, in_box, out_box, delta)
+def finish(raw: CurveGraph, inp: CurveGraph, in_box, out_box, delta: float) -> CurveGraph:
+    """The clean-up every method gets, on its output redrawn as its SVG will read (``raw``:
+    paths re-sampled at ``delta``, crossings and touching ends joined, like the exemplar):
+    stroke spurs / specks pruned and stroke ends repaired to the exemplar's, strokes faired."""
+    g = prune(raw, inp, in_box, out_box, delta)
     g = repair_ends(g, inp, in_box, out_box, delta)
     return fair_like(g, inp, in_box, out_box, delta)

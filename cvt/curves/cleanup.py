@@ -18,6 +18,7 @@ from __future__ import annotations
 import numpy as np
 import torch
 
+from cvt.curves.ends import facing_pairs, outward, run_on
 from cvt.curves.graph import CurveGraph, components
 
 
@@ -77,7 +78,6 @@ def prune(out: CurveGraph, exemplar: CurveGraph, in_box, out_box, delta: float, 
     return out
 
 
-
 def end_rate(g: CurveGraph, box, margin: float) -> float:
     """Ends among the curve samples ``margin`` inside ``box``."""
     inner = _interior(g, box, margin) & (g.kind.numpy() < 0)
@@ -97,8 +97,6 @@ def join_ends(out: CurveGraph, exemplar: CurveGraph, in_box, out_box, delta: flo
     of facing ends (each end's outward direction points at the other within acos(``facing``),
     closer than ``reach`` deltas, both inside), nearest pairs first: breaks the exemplar does
     not have."""
-    from scipy.spatial import cKDTree
-
     deg = out.degree().numpy()
     inner = _interior(out, out_box, 2 * delta)
     ends = np.flatnonzero((deg == 1) & (out.kind.numpy() < 0) & inner)
@@ -106,34 +104,10 @@ def join_ends(out: CurveGraph, exemplar: CurveGraph, in_box, out_box, delta: flo
     if len(ends) < 2 or budget <= 0:
         return join_to_strokes(out, exemplar, in_box, out_box, delta)
     pos, nbr = out.pos.numpy(), out.adjacency()
-    away = pos[ends] - pos[[nbr[v][0] for v in ends]]
-    away /= np.linalg.norm(away, axis=1, keepdims=True).clip(1e-12)
-    pairs = cKDTree(pos[ends]).query_pairs(reach * delta, output_type="ndarray")
-    if len(pairs) == 0:
-        return out
-    d = pos[ends[pairs[:, 1]]] - pos[ends[pairs[:, 0]]]
-    dist = np.linalg.norm(d, axis=1).clip(1e-12)
-    ok = ((away[pairs[:, 0]] * d).sum(1) / dist > facing) & \
-         ((-away[pairs[:, 1]] * d).sum(1) / dist > facing)
-    used, new = set(), []
-    for k in np.flatnonzero(ok)[np.argsort(dist[ok])]:
-        a, b = ends[pairs[k, 0]], ends[pairs[k, 1]]
-        if a in used or b in used or len(new) >= budget:
-            continue
-        used.update((a, b))
-        new.append((a, b))
+    new = facing_pairs(pos, ends, outward(pos, nbr, ends), reach * delta, facing)[:budget]
     if new:
         out = out.with_edges(torch.cat([out.edges, torch.tensor(new, dtype=torch.long)]))
     return join_to_strokes(out, exemplar, in_box, out_box, delta)
-
-
-def _near_along(nbr: list[list[int]], v: int, hops: int) -> set[int]:
-    """Samples at most ``hops`` edges from ``v``."""
-    seen, front = {v}, [v]
-    for _ in range(hops):
-        front = [w for u in front for w in nbr[u] if w not in seen]
-        seen.update(front)
-    return seen
 
 
 def join_to_strokes(out: CurveGraph, exemplar: CurveGraph, in_box, out_box, delta: float,
@@ -141,28 +115,14 @@ def join_to_strokes(out: CurveGraph, exemplar: CurveGraph, in_box, out_box, delt
     """Where the exemplar has junctions, ends still beyond its end density run on into the
     nearest stroke ahead (a T-junction, closer than ``reach`` deltas, within acos(``facing``)
     of the end's outward direction)."""
-    from scipy.spatial import cKDTree
-
     budget = excess_ends(out, exemplar, in_box, out_box, delta)
     inner = _interior(exemplar, in_box, 2 * delta)
     if budget <= 0 or not (exemplar.degree().numpy()[inner] >= 3).any():
         return out
     deg, pos, nbr = out.degree().numpy(), out.pos.numpy(), out.adjacency()
     curve = out.kind.numpy() < 0
-    ends = np.flatnonzero((deg == 1) & curve & _interior(out, out_box, 2 * delta))
-    tree, new = cKDTree(pos), []
-    for v in ends[:budget]:
-        own = _near_along(nbr, v, 4)
-        away = pos[v] - pos[nbr[v][0]]
-        away /= max(np.linalg.norm(away), 1e-12)
-        best, best_d = None, np.inf
-        for c in tree.query_ball_point(pos[v], reach * delta):
-            d = pos[c] - pos[v]
-            dist = max(np.linalg.norm(d), 1e-12)
-            if c not in own and curve[c] and d @ away / dist > facing and dist < best_d:
-                best, best_d = c, dist
-        if best is not None:
-            new.append((v, best))
+    ends = np.flatnonzero((deg == 1) & curve & _interior(out, out_box, 2 * delta))[:budget]
+    new = run_on(pos, nbr, curve, ends, outward(pos, nbr, ends), reach * delta, facing)
     if not new:
         return out
     return out.with_edges(torch.cat([out.edges, torch.tensor(new, dtype=torch.long)]))

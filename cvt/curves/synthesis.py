@@ -3,7 +3,10 @@ edges and existence) x iterations x levels -> paths.
 
 Search and position assignment are cvt's (``neighborhoods``, ``pair_space``, ``patchmatch``,
 ``assign_positions``) with the curve attributes in the feature table (cvt.curves.similarity);
-edges and existence follow eqs. 16-22 (cvt.curves.edges, cvt.curves.existence). Each level
+edges and existence follow eqs. 16-22 (cvt.curves.edges, cvt.curves.existence); stroke ends
+the matched neighborhoods do not back are closed after every edge assignment, and broken
+fragments dropped after each level's last (cvt.curves.ends). The spacings come from
+cvt.curves.spacing (finer for finely detailed strokes). Each level
 after the first starts from the previous level's paths re-sampled at the finer spacing. The
 domain constraint (eqs. 13, 15) is a predicate ``inside``: samples that leave the domain are
 dropped and missing samples are only added inside it. A ``fixed`` graph (autocomplete: what the
@@ -16,16 +19,19 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
+import numpy as np
 import torch
 
 from cvt.assignment import assign_positions
-from cvt.curves.edges import assign_edges
+from cvt.curves.edges import assign_edges, expected_degree
+from cvt.curves.ends import close_breaks, drop_broken, end_evidence
 from cvt.curves.existence import existence, missing_samples
 from cvt.curves.graph import CurveGraph, nearest_edges
 from cvt.curves.init import box_inside, patch_init
 from cvt.curves.reconstruction import trace_paths
 from cvt.curves.sampling import exemplar_graph, stroke_graph
 from cvt.curves.similarity import edge_embedding, feature_table
+from cvt.curves.spacing import curve_levels
 from cvt.curves.strokes import CurveExemplar, Stroke
 from cvt.neighborhood import DistanceParams, neighborhoods, pair_space
 from cvt.sampling import Level
@@ -53,6 +59,12 @@ class CurveConfig:
     passes: int = 2
     huber: float = 1.0
     reach: float = 2.2  # candidate edges join samples closer than this many deltas
+    end_reach: float = 4.0  # unwanted stroke ends join within this many deltas (ends.py)
+    fragment: int = 6  # broken-off fragments shorter than this many samples go (ends.py)
+    init_candidates: int = 16  # patches tried per init cell (init.py)
+    detail_turn: float = 1.0  # finer spacings for strokes turning faster (spacing.py; 0: off)
+    max_halvings: int = 2
+    max_exemplar: int = 1500  # finest exemplar samples the finer spacing may reach
     seed: int = 0
     threads: int = 1
 
@@ -109,10 +121,11 @@ def run_boxed(cx: CurveExemplar, out_box, cfg: CurveConfig, inside: Inside | Non
     gen = torch.Generator().manual_seed(cfg.seed)
     size = (out_box[2] - out_box[0], out_box[3] - out_box[1])
     domain = box_inside(out_box, inside)
-    levels = [cfg.level(cx.exemplar.size, k) for k in range(cfg.levels)]
+    levels = curve_levels(cx, cfg)
     res = CurveResult(CurveGraph.empty(cx.styles), size, levels[-1].delta)
     res.inputs = [exemplar_graph(cx, lv.delta) for lv in levels]
-    out = patch_init(res.inputs[0], cx.box, out_box, 2 * levels[0].radius, domain, gen)
+    out = patch_init(res.inputs[0], cx.box, out_box, 2 * levels[0].radius, domain, gen,
+                     cfg.init_candidates)
     for li, lv in enumerate(levels):
         held = fixed(lv.delta) if fixed is not None else None
         out = _drop_near(out, held, lv.delta) if held is not None else out
@@ -152,18 +165,29 @@ def _run_level(li: int, s: _Level, out: CurveGraph, cfg: CurveConfig, gen, res: 
             break
         passes = cfg.first_passes if it == 0 else cfg.passes
         m = _search(out, s, cfg, field_, passes, gen)
-        out = _assign(out, m, s, cfg)
+        out, want = _assign(out, m, s, cfg)
         field_ = m.center
         res.energies.append((li, it, m.energy))
         if it + 1 < cfg.iterations:
             out, field_ = _existence(out, m, s, field_)
         else:  # the domain constraint also holds after the last move
+            if cfg.connectivity:
+                out = drop_broken(out, want, cfg.fragment, keep=s.n_fixed,
+                                  rim=_rim(out.pos, s.inside, 2 * s.lv.delta))
             keep = s.inside(out.pos)
             keep[: s.n_fixed] = True
             out = out.select(torch.nonzero(keep).flatten())
         if on_iteration is not None:
             on_iteration(li, it, out, m.energy)
     return out
+
+
+def _rim(pos: torch.Tensor, inside: Inside, margin: float) -> np.ndarray:
+    """Samples within ``margin`` of the domain border. Shape: (N, 2) -> (N,) bool."""
+    ok = torch.ones(len(pos), dtype=torch.bool)
+    for d in ((margin, 0.0), (-margin, 0.0), (0.0, margin), (0.0, -margin)):
+        ok &= inside(pos + torch.tensor(d, dtype=pos.dtype))
+    return (~ok).numpy()
 
 
 def _search(out: CurveGraph, s: _Level, cfg: CurveConfig, field_, passes: int, gen):
@@ -177,16 +201,20 @@ def _search(out: CurveGraph, s: _Level, cfg: CurveConfig, field_, passes: int, g
     return patchmatch(sp, grid, field_, SearchParams(passes=passes), window0, gen)
 
 
-def _assign(out: CurveGraph, m, s: _Level, cfg: CurveConfig) -> CurveGraph:
-    """Positions by least squares (eqs. 14-15), then edges (eqs. 17-22)."""
+def _assign(out: CurveGraph, m, s: _Level, cfg: CurveConfig):
+    """Positions by least squares (eqs. 14-15), then edges (eqs. 17-22) with the breaks the
+    matched neighborhoods do not back closed (cvt.curves.ends). Returns the graph and the
+    expected degrees (eq. 18). Shape: -> CurveGraph, (N,)."""
     pos = assign_positions(out.pos, m, s.inp.pos, huber=cfg.huber * s.lv.delta)
     pos[: s.n_fixed] = out.pos[: s.n_fixed]
     out = out.with_(pos=pos, style=_voted_style(out, m, s))
-    if cfg.connectivity:
-        edges = assign_edges(m, out, s.inp, cfg.reach * s.lv.delta, keep=s.fixed_edges)
-    else:  # the no-connectivity baseline: samples only, joined to their nearest afterwards
-        edges = nearest_edges(out, 1.6 * s.lv.delta)
-    return out.with_(edges=edges)
+    want = end_evidence(expected_degree(m, out, s.inp).numpy(),
+                        s.inp.degree().numpy()[m.center.numpy()])
+    if not cfg.connectivity:  # the no-connectivity baseline: samples joined to their nearest
+        return out.with_(edges=nearest_edges(out, 1.6 * s.lv.delta)), want
+    out = out.with_(edges=assign_edges(m, out, s.inp, cfg.reach * s.lv.delta,
+                                       keep=s.fixed_edges))
+    return close_breaks(out, want, cfg.end_reach * s.lv.delta), want
 
 
 def _voted_style(out: CurveGraph, m, s: _Level) -> torch.Tensor:

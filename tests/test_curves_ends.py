@@ -1,0 +1,98 @@
+"""Stroke ends the matched neighborhoods do not back (cvt.curves.ends), the init by boundary
+similarity (cvt.curves.init) and the before / after stages of the eval (cvt.curves.baselines)."""
+
+import numpy as np
+import torch
+
+from cvt.curves.ends import close_breaks, drop_broken, end_evidence, unwanted_ends
+from cvt.curves.graph import StrokeStyle
+from cvt.curves.init import patch_init
+from cvt.curves.sampling import stroke_graph
+from cvt.curves.strokes import Stroke
+
+STYLE = [StrokeStyle("#000000", 1.0)]
+
+
+def _graph(polylines, delta=2.0):
+    return stroke_graph([Stroke(np.asarray(p, float), False, 0) for p in polylines], STYLE,
+                        delta)
+
+
+def _want(g, value):
+    return np.full(len(g), float(value))
+
+
+def test_a_break_inside_a_stroke_is_closed_only_where_the_matches_say_stroke():
+    g = _graph([[[0, 50], [45, 50]], [[51, 50], [100, 50]]])  # a 6-unit break
+    fixed = close_breaks(g, _want(g, 2.0), reach=8.0)
+    assert len(fixed.edges) == len(g.edges) + 1 and len(unwanted_ends(fixed, _want(g, 2))) == 2
+    # the exemplar has ends there (expected degree 1): the break stays
+    assert len(close_breaks(g, _want(g, 1.0), reach=8.0).edges) == len(g.edges)
+    # too far apart for the reach
+    assert len(close_breaks(g, _want(g, 2.0), reach=4.0).edges) == len(g.edges)
+
+
+def test_ends_pointing_away_are_not_joined_tips_side_by_side_are():
+    g = _graph([[[45, 50], [100, 50]], [[51, 56], [0, 56]]])  # 8.5 apart, pointing away
+    assert len(close_breaks(g, _want(g, 2.0), reach=10.0).edges) == len(g.edges)
+    tip = _graph([[[0, 50], [45, 50]], [[0, 53], [45, 53]]])  # a peninsula without its tip
+    fixed = close_breaks(tip, _want(tip, 2.0), reach=8.0)
+    assert len(fixed.edges) == len(tip.edges) + 2  # both tips (x = 0 and 45)
+    assert len(close_breaks(tip, _want(tip, 2.0), reach=4.0).edges) == len(tip.edges)
+
+
+def test_an_open_loop_is_closed_again():
+    t = np.linspace(0, 2 * np.pi * 0.9, 60)  # a circle with a 10 % gap
+    g = _graph([np.c_[50 + 30 * np.cos(t), 50 + 30 * np.sin(t)]])
+    fixed = close_breaks(g, _want(g, 2.0), reach=10.0)  # gap 19: only the loop rule (2 reach)
+    assert int((fixed.degree() == 1).sum()) == 0 and len(fixed.edges) == len(fixed)
+    assert len(close_breaks(g, _want(g, 2.0), reach=4.0).edges) == len(g.edges)
+
+
+def test_an_end_runs_on_into_an_expected_junction_only():
+    g = _graph([[[0, 50], [100, 50]], [[50, 0], [50, 45]]])  # stops 5 short of the line
+    want = _want(g, 2.0)
+    assert len(close_breaks(g, want, reach=8.0).edges) == len(g.edges)  # no junction expected
+    near = (g.pos - torch.tensor([50.0, 50.0]).double()).norm(dim=1).numpy() < 1.5
+    want[near] = 3.0
+    fixed = close_breaks(g, want, reach=8.0)
+    assert int((fixed.degree() >= 3).sum()) == 1
+
+
+def test_broken_pieces_and_stubs_go_real_ends_stay():
+    line = [[0, 50], [100, 50]]
+    g = _graph([line, [[40, 30], [46, 30]], [[70, 50], [70, 56]]])  # a speck and a stub
+    want = _want(g, 2.0)
+    out = drop_broken(g, want, longest=6)
+    assert len(out) == len(g) - 4 - 3 and int((out.degree() >= 3).sum()) == 0
+    assert len(drop_broken(g, _want(g, 1.0), longest=6)) == len(g)  # ends the exemplar has
+    assert len(drop_broken(g, want, longest=6, keep=len(g))) == len(g)  # a user's strokes
+
+
+def test_a_piece_cut_by_the_border_that_runs_out_inside_goes():
+    g = _graph([[[0, 50], [24, 50]]])  # 13 samples from the border
+    rim = (g.pos[:, 0] < 3).numpy()
+    assert len(drop_broken(g, _want(g, 2.0), longest=6)) == len(g)
+    assert len(drop_broken(g, _want(g, 2.0), longest=6, rim=rim)) == 0
+
+
+def test_init_patches_continue_their_left_neighbour():
+    # horizontal lines 10 apart, phase-shifted copies only fit one offset
+    ys = np.arange(3, 200, 10.0)
+    inp = _graph([[[0, y], [200, y]] for y in ys])
+    box = (0.0, 0.0, 200.0, 200.0)
+
+    def misfit(cands, seed=1):
+        out = patch_init(inp, box, (0, 0, 120, 40), 40.0, lambda p: torch.ones(len(p), dtype=bool),
+                         torch.Generator().manual_seed(seed), cands)
+        y = out.pos[:, 1].numpy()
+        return float(np.abs((y - y[0] + 5) % 10 - 5).max())  # off the first patch's lines
+
+    chosen = np.mean([misfit(16, seed) for seed in range(6)])
+    assert chosen < 1.0 and np.mean([misfit(1, seed) for seed in range(6)]) > 2.5 * chosen
+
+
+def test_an_end_matched_to_an_input_end_is_wanted():
+    want = np.array([2.0, 1.8, 2.0])
+    capped = end_evidence(want, np.array([2, 1, 3]))
+    assert capped.tolist() == [2.0, 1.0, 2.0]
