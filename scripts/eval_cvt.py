@@ -97,6 +97,8 @@ def main() -> None:
     ap.add_argument("--only", default="", help="--real: only files whose name contains this")
     ap.add_argument("--method", default="full", help="--real: cvt synthesize --method")
     ap.add_argument("--extra", default="", help="--real: more cvt synthesize arguments")
+    ap.add_argument("--seam-seeds", type=int, default=3,
+                    help="--real with --extra=--tileable: seeds the seam measure pools")
     args = ap.parse_args()
     if args.real:
         from eval_cvt_real import run_real
