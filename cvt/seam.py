@@ -34,7 +34,7 @@ PATCH = 4  # taps per side of a patch, spaced 2**s px at octave s
 PROJECTIONS = 64
 STEP = 8  # control lines every STEP px
 MARGIN = 2 * (PATCH - 1) * 2 ** (OCTAVES - 1)  # px: side patches of a control miss the seam
-PERIOD_TOL = 0.1  # a shift is a near-period when its mean squared difference is this small
+PERIOD_TOL = 0.02  # a shift is a near-period when its mean squared difference is this small
 # patch starts, in taps from the line: straddling it; wholly left of it and wholly right of it
 _ON = -np.arange(1, PATCH)
 _BESIDE = np.r_[-np.arange(PATCH, 2 * PATCH - 1), np.arange(PATCH - 1)]
@@ -90,20 +90,24 @@ def line_swd(maps: list[torch.Tensor], axis: int, lines) -> np.ndarray:
 def periods(image: np.ndarray, axis: int) -> np.ndarray:
     """Shifts t (0 < t < n) along ``axis`` under which the image, wrapped around, is nearly
     itself: mean squared difference <= PERIOD_TOL x its median over all shifts (FFT
-    autocorrelation). Empty for an irregular image. Shape: (H, W, 3) -> (T,)."""
+    autocorrelation) and no more than at t +- 1. Empty for an irregular image. Shape:
+    (H, W, 3) -> (T,)."""
     x = np.moveaxis(np.asarray(image, np.float64), axis, 0)  # (n, m, 3)
     f = np.fft.rfft(x, axis=0)
     auto = np.fft.irfft(np.abs(f) ** 2, n=len(x), axis=0).sum((1, 2))  # (n,)
     ssd = np.maximum(2 * (auto[0] - auto), 0)  # sum of squared differences per shift
     t = np.arange(1, len(x))
-    return t[ssd[1:] <= PERIOD_TOL * np.median(ssd[1:])]
+    low = ssd[t] <= PERIOD_TOL * np.median(ssd[t])
+    lowest = (ssd[t] <= ssd[t - 1]) & (ssd[t] <= ssd[(t + 1) % len(x)])  # not its neighbours
+    return t[low & lowest]
 
 
 def controls(image: np.ndarray, axis: int) -> np.ndarray:
-    """Interior lines to compare a seam with: at least MARGIN px from it, at the image's
-    near-periods if it has such lines, else every STEP px. Shape: (H, W, 3) -> (L,)."""
-    n = image.shape[1 - axis]
-    t = periods(image, 1 - axis)
+    """Interior lines to compare a seam with (axis 1: vertical lines, at columns; 0: rows): at
+    least MARGIN px from it, at the image's near-periods along that axis if it has such lines,
+    else every STEP px. Shape: (H, W, 3) -> (L,)."""
+    n = image.shape[axis]
+    t = periods(image, axis)
     t = t[np.minimum(t, n - t) >= MARGIN]
     if len(t):
         return t

@@ -99,7 +99,14 @@ def main() -> None:
     ap.add_argument("--extra", default="", help="--real: more cvt synthesize arguments")
     ap.add_argument("--seam-seeds", type=int, default=3,
                     help="--real with --extra=--tileable: seeds the seam measure pools")
+    ap.add_argument("--periodic", action="store_true",
+                    help="--real: only the seam measure of the lattice exemplars' own tiles")
     args = ap.parse_args()
+    if args.real and args.periodic:
+        from eval_cvt_real import periodic_check
+
+        print(periodic_check(ROOT))
+        return
     if args.real:
         from eval_cvt_real import run_real
 

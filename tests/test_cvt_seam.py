@@ -30,6 +30,15 @@ def test_an_exactly_periodic_image_reads_one():
     assert abs(seam / inner - 1) < 0.02
 
 
+def test_controls_follow_each_axis_own_period():
+    cell = _discs(5, 48, seed=2, wrap=True)[:32]  # (32, 48, 3): not a torus across y
+    img = np.tile(np.tile(cell, (1, 1, 1)), (4, 4, 1))  # (128, 192, 3)
+    assert set(controls(img, 1).tolist()) == {48, 96, 144}  # vertical lines: columns
+    assert set(controls(img, 0).tolist()) == {32, 64, 96}  # horizontal lines: rows
+    seam, inner = seam_ratio([img])
+    assert abs(seam / inner - 1) < 0.02
+
+
 def test_an_irregular_image_has_no_period_and_is_compared_with_many_lines():
     img = _discs(60, 192, seed=1)
     assert not any(min(t, 192 - t) >= MARGIN for t in periods(img, 1))
