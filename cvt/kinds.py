@@ -2,7 +2,9 @@
 
 Two elements are of one kind when they have the same markup structure and colours (tags and
 paint attributes, positions ignored), the same number of outline rings, and boxes and outline
-areas of about the same size (within ``SIZE_TOL``): an X and an O of one colour differ. Elements
+areas of about the same size (within ``SIZE_TOL``): an X and an O of one colour differ.
+:func:`exact_kinds` also tells apart turned and mirrored copies by their silhouette (a lattice
+maps a motif onto translates only: the two mirrored rows of a lips stripe are two motifs). Elements
 cut by the canvas border (``cut_mask``) are fragments: their visible part is not the motif, so
 they are kept apart from whole ones.
 """
@@ -18,6 +20,8 @@ if TYPE_CHECKING:
     from cvt.svg import Element
 
 SIZE_TOL = 0.12
+GRID = 8
+GRID_TOL = 0.1
 _PAINT = ("fill", "stroke", "stroke-width", "opacity", "fill-opacity", "class")
 _STYLE = re.compile(r"(fill|stroke|stroke-width|opacity|fill-opacity)\s*:\s*([^;]+)")
 
@@ -87,18 +91,9 @@ def element_kinds(elements: list[Element], cut: np.ndarray | None = None) -> np.
     sigs = [f"{signature(e)}|{n}" for e, (n, _) in zip(elements, stats, strict=True)]
     area = np.array([[a, a] for _, a in stats])
     cut = np.zeros(len(elements), bool) if cut is None else cut
-    kinds = np.full(len(elements), -1)
-    reps: list[int] = []
-    for i in range(len(elements)):
-        for k, r in enumerate(reps):
-            if (sigs[r] == sigs[i] and cut[r] == cut[i] and _close(size[r], size[i])
-                    and _close(area[r], area[i])):
-                kinds[i] = k
-                break
-        else:
-            kinds[i] = len(reps)
-            reps.append(i)
-    return kinds
+    return _first_seen(len(elements), lambda r, i: (
+        sigs[r] == sigs[i] and cut[r] == cut[i] and _close(size[r], size[i])
+        and _close(area[r], area[i])))
 
 
 def ring_stats(e: Element) -> tuple[int, float]:
@@ -110,6 +105,44 @@ def ring_stats(e: Element) -> tuple[int, float]:
             area += 0.5 * abs(float(np.dot(r[:, 0], np.roll(r[:, 1], 1))
                                     - np.dot(r[:, 1], np.roll(r[:, 0], 1))))
     return n, area
+
+
+def exact_kinds(elements: list[Element], kinds: np.ndarray) -> np.ndarray:
+    """``kinds`` split by silhouette (:func:`silhouette`, at most ``GRID_TOL`` of the cells
+    differing): one kind holds translated copies only. Shape: (E,) -> (E,) long."""
+    grids = [silhouette(e, e.bbox) for e in elements]
+    return _first_seen(len(elements), lambda r, i: (
+        kinds[r] == kinds[i] and (grids[r] != grids[i]).mean() <= GRID_TOL))
+
+
+def silhouette(e: Element, box: np.ndarray) -> np.ndarray:
+    """Which cells of a ``GRID`` x ``GRID`` grid over the element's box its filled rings and
+    strokes cover: equal for copies, mirrored for a mirror image. Shape: (GRID, GRID) bool."""
+    from PIL import Image, ImageDraw
+
+    img = Image.new("1", (GRID, GRID), 0)
+    draw = ImageDraw.Draw(img)
+    scale = GRID / np.maximum(box[2:] - box[:2], 1e-9)
+    for s in e.shapes:
+        for ring in s.rings:
+            xy = [tuple(p) for p in ((ring - box[:2]) * scale).tolist()]
+            if s.filled and len(xy) >= 3:
+                draw.polygon(xy, fill=1)
+            elif len(xy) >= 2:
+                draw.line(xy, fill=1)
+    return np.asarray(img, dtype=bool)
+
+
+def _first_seen(n: int, same) -> np.ndarray:
+    """Group ids 0..K-1 in first-seen order: item i joins the first group whose first item r
+    has ``same(r, i)``. Shape: (n,) long."""
+    ids = np.full(n, -1)
+    reps: list[int] = []
+    for i in range(n):
+        ids[i] = next((k for k, r in enumerate(reps) if same(r, i)), len(reps))
+        if ids[i] == len(reps):
+            reps.append(i)
+    return ids
 
 
 def _close(a: np.ndarray, b: np.ndarray) -> bool:

@@ -30,7 +30,7 @@ from cvt.canvas import (
 from cvt.companions import companion_kinds, drop_orphans
 from cvt.density import fragment_owners
 from cvt.domain import Domain
-from cvt.kinds import cut_mask, element_kinds
+from cvt.kinds import cut_mask, element_kinds, exact_kinds
 from cvt.lattice import detect_lattice, lattice_copies
 from cvt.reconstruction import Placement
 from cvt.svg import Exemplar, to_svg
@@ -100,7 +100,9 @@ def _arrange(ex, size, cfg, method, opts, boxes, cut, kinds, notes, on_iteration
     lat = None
     if opts.lattice:
         centers = (boxes[:, :2] + boxes[:, 2:]) / 2
-        lat = detect_lattice(centers, kinds, boxes, ~cut, ex.viewbox)
+        # translated copies first (mirrored rows are two motifs), then copies of a kind
+        lat = (detect_lattice(centers, exact_kinds(ex.elements, kinds), boxes, ~cut, ex.viewbox)
+               or detect_lattice(centers, kinds, boxes, ~cut, ex.viewbox))
     if lat is not None:
         notes.append(f"lattice: periods ({lat.a[0]:.4g}, {lat.a[1]:.4g}) and ({lat.b[0]:.4g}, "
                      f"{lat.b[1]:.4g}), {len(lat.reps)} motif(s) per cell, explains "

@@ -97,7 +97,16 @@ def main() -> None:
     ap.add_argument("--only", default="", help="--real: only files whose name contains this")
     ap.add_argument("--method", default="full", help="--real: cvt synthesize --method")
     ap.add_argument("--extra", default="", help="--real: more cvt synthesize arguments")
+    ap.add_argument("--seam-seeds", type=int, default=3,
+                    help="--real with --extra=--tileable: seeds the seam measure pools")
+    ap.add_argument("--periodic", action="store_true",
+                    help="--real: only the seam measure of the lattice exemplars' own tiles")
     args = ap.parse_args()
+    if args.real and args.periodic:
+        from eval_cvt_real import periodic_check
+
+        print(periodic_check(ROOT))
+        return
     if args.real:
         from eval_cvt_real import run_real
 

@@ -1,6 +1,11 @@
 """`eval_cvt.py --real`: run `cvt synthesize` on every real-world exemplar (data/cvt_real) at
---scale 2 in a child process (wall time and peak memory of that process), then judge the
-output SVG against R1 (random placement) and R2 (2 x 2 tiling) with cvt.judge."""
+--scale 2 in a child process (CPU and wall time and peak memory of that process), then judge the
+output SVG against R1 (random placement) and R2 (2 x 2 tiling) with cvt.judge.
+
+Seams (cvt.seam): each output tiled 2 x 2, patch SWD across the seam lines against interior
+lines. With --tileable the seam is pooled over --seam-seeds seeds, and the plain outputs of
+the same seeds (no --tileable) are measured beside it: the estimator must separate them. The
+exemplars' own tiles of the lattice patterns (exactly periodic) must read about 1."""
 
 from __future__ import annotations
 
@@ -13,14 +18,18 @@ import tempfile
 import time
 from pathlib import Path
 
-from cvt.judge import PASS_METRICS, PIXELS, judge, seam_step, seam_swd
+import numpy as np
+
+from cvt.judge import PASS_METRICS, PIXELS, judge
+from cvt.seam import seam_ratio, seam_step
 from cvt.svg import load_svg
 from neuraltex.fileio import write_text_atomic
 
 
 def synthesize(path: Path, out: Path, scale: float, seed: int, method: str, extra: str,
-               root: Path) -> tuple[float, float, str]:
-    """Wall seconds, peak MB and stderr of one `cvt synthesize` child process."""
+               root: Path) -> tuple[float, float, float, str]:
+    """Wall seconds, CPU seconds (user + system), peak MB and stderr of one `cvt synthesize`
+    child process."""
     cmd = [sys.executable, "-m", "cvt.cli", "synthesize", str(path), "-o", str(out), "--scale",
            f"{scale:g}", "--seed", str(seed), "--quiet", "--method", method, *shlex.split(extra)]
     env = {**os.environ, "PYTHONPATH": str(root), "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
@@ -33,35 +42,60 @@ def synthesize(path: Path, out: Path, scale: float, seed: int, method: str, extr
         text = log.read().decode()
     if os.waitstatus_to_exitcode(status):
         raise RuntimeError(f"{path.name}: {text.strip()}")
-    return wall, usage.ru_maxrss / 1024, text
+    return wall, usage.ru_utime + usage.ru_stime, usage.ru_maxrss / 1024, text
 
 
-def _render(svg: str, size, ex):
+def _render(svg: str, size, ex, width: int | None = None):
     import io
 
-    import numpy as np
     from PIL import Image
 
     from cvt.raster import png_bytes
 
-    w = round(size[0] * 2 * PIXELS / ex.viewbox[2])
+    w = width or round(size[0] * 2 * PIXELS / ex.viewbox[2])
     return np.asarray(Image.open(io.BytesIO(png_bytes(svg, width=w))).convert("RGB"),
                       np.float32) / 255
 
 
-def _seam_line(name: str, svg: str, size, ex, r: dict, tileable: bool) -> str:
-    """Seam measures of the output tiled 2 x 2 (cvt.judge.seam_step, seam_swd); for a
-    --tileable run ``r["seam"]`` gets the step ratio (the target: <= 1.1)."""
-    image = _render(svg, size, ex)
-    step, near = seam_step(image)
-    swd, inner = seam_swd(image)
-    if tileable:
-        r["seam"] = step / max(near, 1e-9)
-    line = (f"- {name}: colour step across the seam {step:.4f}, across the lines beside it "
-            f"{near:.4f}, ratio {step / max(near, 1e-9):.2f}; strip patch SWD: seam {swd:.3f}, "
-            f"interior {inner:.3f}, ratio {swd / max(inner, 1e-9):.2f}")
+def _seam_line(name: str, images: list, plain: list, r: dict) -> str:
+    """Seam measures of outputs tiled 2 x 2: the patch-SWD ratio (cvt.seam) pooled over the
+    tiles ``images`` (for a --tileable run ``r["seam"]`` gets it: the target is <= 1.1), the
+    same of the tile cut through its middle (interior lines as a seam: the estimator's own
+    spread), of the ``plain`` outputs if any, and the colour step (cvt.seam.seam_step)."""
+    seam, inner = seam_ratio(images)
+    mid, mid_inner = seam_ratio([np.roll(x, (x.shape[0] // 2, x.shape[1] // 2), (0, 1))
+                                 for x in images])
+    r["seam"] = seam / inner
+    step, near = np.sum([seam_step(x) for x in images], axis=0)
+    line = (f"- {name}: patch SWD across the seam {seam:.3f}, across interior lines "
+            f"{inner:.3f}, ratio {seam / inner:.2f} (mid-lines as a seam: {mid / mid_inner:.2f})")
+    if plain:
+        p_seam, p_inner = seam_ratio(plain)
+        r["plain_seam"] = p_seam / p_inner
+        line += f"; plain outputs: ratio {p_seam / p_inner:.2f}"
+    line += f"; colour step ratio {step / max(near, 1e-9):.2f}"
     print(line, file=sys.stderr, flush=True)
     return line
+
+
+def _seam_images(path: Path, ex, size, args, root: Path, tmp: str, first: Path) -> tuple:
+    """Renderings of the output (seed ``args.seed``, already in ``first``) and, for a
+    --tileable run, of seeds + 1 ... and of the plain outputs of the same seeds."""
+    tileable = "--tileable" in args.extra
+    seeds = range(args.seed, args.seed + (args.seam_seeds if tileable else 1))
+    plain_extra = " ".join(a for a in shlex.split(args.extra) if a != "--tileable")
+    images, plain = [], []
+    for seed in seeds:
+        for extra, out in ((args.extra, images), (plain_extra, plain if tileable else None)):
+            if out is None:
+                continue
+            svg = Path(tmp) / f"{path.stem}-{seed}-{len(out)}-{extra == args.extra}.svg"
+            if seed == args.seed and extra == args.extra:
+                svg = first
+            else:
+                synthesize(path, svg, args.scale, seed, args.method, extra, root)
+            out.append(_render(svg.read_text(), size, ex))
+    return images, plain
 
 
 def _fmt(v) -> str:
@@ -73,7 +107,7 @@ def _fmt(v) -> str:
 def run_real(args, root: Path) -> None:
     files = sorted(p for p in (root / "data" / "cvt_real").glob("*.svg") if args.only in p.name)
     head = ["exemplar", "n", "out/R1/R2 pcf", "swd", "depth", "degree", "layering", "pass",
-            "density", "integrity", "pairs", "s", "MB"]
+            "density", "integrity", "pairs", "cpu s", "s", "MB"]
     lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
     rows, seams = [], []
     with tempfile.TemporaryDirectory() as tmp:
@@ -81,29 +115,32 @@ def run_real(args, root: Path) -> None:
             ex = load_svg(path, "auto")
             size = (ex.viewbox[2] * args.scale, ex.viewbox[3] * args.scale)
             out = Path(tmp) / path.name
-            wall, peak, _ = synthesize(path, out, args.scale, args.seed, args.method, args.extra,
-                                       root)
+            wall, cpu, peak, _ = synthesize(path, out, args.scale, args.seed, args.method,
+                                            args.extra, root)
             r = judge(ex, out.read_text(), size, tileable="--tileable" in args.extra)
-            r.update(name=path.stem, wall=wall, peak=peak)
+            r.update(name=path.stem, wall=wall, cpu=cpu, peak=peak)
             if path.stem.startswith("emoji_") or "--tileable" in args.extra:
-                seams.append(_seam_line(path.stem, out.read_text(), size, ex, r,
-                                        "--tileable" in args.extra))
+                seams.append(_seam_line(path.stem, *_seam_images(path, ex, size, args, root,
+                                                                 tmp, out), r))
             rows.append(r)
             cells = [" / ".join(_fmt(r["d"][k][m]) for k in ("out", "R1", "R2"))
                      + ("" if r["verdict"][m] else " ✗") + (" =" if m in r["tied"] else "")
                      for m in PASS_METRICS]
             line = [r["name"], str(r["elements"]), *cells, _fmt(r["pass"]), _fmt(r["density"]),
-                    _fmt(r["integrity"]), _fmt(r["pairs"]), f"{wall:.1f}", f"{peak:.0f}"]
+                    _fmt(r["integrity"]), _fmt(r["pairs"]), f"{cpu:.1f}", f"{wall:.1f}",
+                    f"{peak:.0f}"]
             lines.append("| " + " | ".join(line) + " |")
             print(lines[-1], file=sys.stderr, flush=True)  # progress; the tables go to stdout
-    text = ("\n".join(lines) + "\n\n" + totals(rows) + "\n\nOutputs tiled 2 x 2:\n\n"
-            + "\n".join(seams) + "\n")
+    text = ("\n".join(lines) + "\n\n" + totals(rows, "--tileable" in args.extra)
+            + "\n\nOutputs tiled 2 x 2:\n\n" + "\n".join(seams) + "\n")
+    if "--tileable" in args.extra:
+        text += "\n" + periodic_check(root) + "\n"
     print(text, end="")
     if args.out:
         write_text_atomic(args.out, text)
 
 
-def totals(rows: list[dict]) -> str:
+def totals(rows: list[dict], tileable: bool = False) -> str:
     n = len(rows)
     per = ", ".join(f"{m} {sum(r['verdict'][m] for r in rows)}/{n} "
                     f"({sum(m in r['tied'] for r in rows)} not separating)" for m in PASS_METRICS)
@@ -111,14 +148,36 @@ def totals(rows: list[dict]) -> str:
     integ = sum(r["integrity"] >= 0.95 for r in rows)
     pairs = [r["pairs"] for r in rows if not math.isnan(r["pairs"])]
     seams = [r["seam"] for r in rows if "seam" in r]
-    seam = (f"; tileable: colour step across the seam / beside it within 1.1 on "
-            f"{sum(v <= 1.1 for v in seams)}/{len(seams)}, median "
-            f"{sorted(seams)[len(seams) // 2]:.2f}" if seams else "")
-    slow = max(rows, key=lambda r: r["wall"])
+    plain = [r["plain_seam"] for r in rows if "plain_seam" in r]
+    seam = ""
+    if tileable and seams:
+        seam = (f"; tileable: seam patch SWD / interior within 1.1 on "
+                f"{sum(v <= 1.1 for v in seams)}/{len(seams)}, median {np.median(seams):.2f}, "
+                f"max {max(seams):.2f} (plain outputs of the same seeds: median "
+                f"{np.median(plain):.2f}, min {min(plain):.2f})")
+    slow = max(rows, key=lambda r: r["cpu"])
     big = max(rows, key=lambda r: r["peak"])
     return (f"Totals over {n} exemplars: closer to the tiling than to random on all five "
             f"metrics: {sum(r['pass'] for r in rows)}/{n} ({per}); density within 15 %: "
             f"{dens}/{n}; integrity >= 0.95: {integ}/{n}; clustered pairs kept (worst pair "
             f"per exemplar, {len(pairs)} exemplars with pairs): min {min(pairs, default=0):.2f}, "
             f"mean {sum(pairs) / max(len(pairs), 1):.2f}; slowest {slow['name']} "
-            f"{slow['wall']:.1f} s; largest {big['name']} {big['peak']:.0f} MB{seam}.")
+            f"{slow['cpu']:.1f} CPU s ({slow['wall']:.1f} s wall); largest {big['name']} "
+            f"{big['peak']:.0f} MB{seam}.")
+
+
+def periodic_check(root: Path) -> str:
+    """The seam ratio of the lattice exemplars' own tiles (exactly periodic), rendered at a
+    whole number of pixels per user unit so that the lattice periods are whole pixels."""
+    out = ["Exactly periodic tiles (the lattice exemplars themselves, whole pixels per unit):",
+           ""]
+    for path in sorted((root / "data" / "cvt_real").glob("*.svg")):
+        if path.stem.startswith("emoji_"):
+            continue
+        ex = load_svg(path, "auto")
+        k = max(1, round(2 * PIXELS / ex.viewbox[2]))
+        image = _render(path.read_text(), ex.viewbox[2:], ex, round(ex.viewbox[2] * k))
+        seam, inner = seam_ratio([image])
+        out.append(f"- {path.stem} ({image.shape[1]} x {image.shape[0]} px): seam {seam:.3f}, "
+                   f"interior {inner:.3f}, ratio {seam / inner:.2f}")
+    return "\n".join(out)

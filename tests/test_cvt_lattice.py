@@ -2,9 +2,11 @@
 
 import numpy as np
 
-from cvt.kinds import cut_mask, element_kinds
+from cvt.kinds import cut_mask, element_kinds, exact_kinds
 from cvt.lattice import detect_lattice, lattice_copies
+from cvt.pattern import synthesize_pattern
 from cvt.svg import parse_svg
+from cvt.synthesis import SynthesisConfig
 
 NS = 'xmlns="http://www.w3.org/2000/svg"'
 X = '<path d="M{0},{1} l4,4 M{2},{1} l-4,4" stroke="black" stroke-width="1" fill="none"/>'
@@ -68,3 +70,35 @@ def test_jittered_grid_still_has_a_lattice_but_a_random_layout_has_none():
     ex = parse_svg(f'<svg {NS} viewBox="0 0 60 60">{body}</svg>'.encode())
     boxes, cut, kinds, centers = _analyse(ex)
     assert detect_lattice(centers, kinds, boxes, ~cut, ex.viewbox) is None
+
+
+def _mirrored_rows() -> bytes:
+    """Rows of triangles pointing up and down in turn (a motif and its mirror image)."""
+    body = []
+    for j in range(6):
+        for i in range(6):
+            x, y = 2 + i * 10, 2 + j * 10
+            d = f"M{x},{y + 6} L{x + 3},{y} L{x + 6},{y + 6} Z" if j % 2 else \
+                f"M{x},{y} L{x + 3},{y + 6} L{x + 6},{y} Z"
+            body.append(f'<path d="{d}"/>')
+    return f'<svg {NS} viewBox="0 0 60 60">{"".join(body)}</svg>'.encode()
+
+
+def test_mirror_images_are_one_kind_but_not_one_exact_kind():
+    ex = parse_svg(_mirrored_rows())
+    _, _, kinds, _ = _analyse(ex)
+    exact = exact_kinds(ex.elements, kinds)
+    assert len(set(kinds.tolist())) == 1 and len(set(exact.tolist())) == 2
+    assert exact[0] == exact[1] != exact[6]  # along a row the same, the next row mirrored
+
+
+def test_mirrored_rows_keep_their_alternation():
+    ex = parse_svg(_mirrored_rows())
+    cfg = SynthesisConfig(levels=1, iterations=1, seed=0)
+    pattern = synthesize_pattern(ex, (120.0, 120.0), cfg)
+    lat = pattern.lattice
+    assert lat is not None and len(lat.reps) == 2
+    assert np.isclose(abs(lat.a[0] * lat.b[1] - lat.a[1] * lat.b[0]), 200)  # 10 x 20 cell
+    # every placed triangle points the way its row does in the exemplar
+    for e, dx, dy in pattern.placements:
+        assert round(dy / 10) % 2 == 0, (e, dx, dy)
