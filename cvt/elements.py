@@ -19,6 +19,8 @@ import xml.etree.ElementTree as ET
 
 import numpy as np
 import svgelements as se
+from scipy.sparse import csr_matrix
+from scipy.sparse.csgraph import connected_components
 
 MODES = ("auto", "shapes", "groups")
 SVG_NS = "http://www.w3.org/2000/svg"
@@ -99,24 +101,14 @@ def _pieces(d: str) -> list[str]:
         boxes.append(b)
     boxes = np.asarray(boxes, dtype=float)  # (S, 4)
     eps = 1e-6 * float(np.ptp(boxes, axis=0).max() + 1.0)
-    parent = list(range(len(subs)))
-
-    def find(i: int) -> int:
-        while parent[i] != i:
-            parent[i] = parent[parent[i]]
-            i = parent[i]
-        return i
-
     touch = ((boxes[:, None, :2] <= boxes[None, :, 2:] + eps)
              & (boxes[None, :, :2] <= boxes[:, None, 2:] + eps)).all(-1)  # (S, S)
-    for i, j in zip(*np.nonzero(np.triu(touch, 1)), strict=True):
-        parent[find(int(i))] = find(int(j))
-    roots = [find(i) for i in range(len(subs))]
-    if len(set(roots)) < MIN_PIECES:
+    count, roots = connected_components(csr_matrix(touch), directed=False)
+    if count < MIN_PIECES:
         return [d]
     groups: dict[int, list[int]] = {}
     for i, r in enumerate(roots):
-        groups.setdefault(r, []).append(i)
+        groups.setdefault(int(r), []).append(i)
     return [" ".join(se.Path(subs[i]).d(relative=False) for i in idx)
             for idx in groups.values()]
 

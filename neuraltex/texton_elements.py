@@ -77,9 +77,11 @@ def _hugging(elements: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     times the radius of the larger element j of the (H, W) element map — a coin's rim arc
     around its face, a rosette's ring around its centre, a halo (background elements
     excluded). Each i joins the j that holds most of it."""
-    from scipy.ndimage import distance_transform_edt
+    from scipy.ndimage import distance_transform_edt, find_objects
 
     E = int(elements.max()) + 1
+    H, W = elements.shape
+    boxes = find_objects(elements + 1)                              # bounding slices
     area = np.bincount(elements.ravel(), minlength=E)
     big = area >= BACKGROUND_SHARE * elements.size
     best, share = np.full(E, -1), np.zeros(E)
@@ -87,8 +89,12 @@ def _hugging(elements: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         if big[j] or area[j] < 16:
             continue
         reach = HUG_REACH * math.sqrt(area[j] / math.pi)
-        near = distance_transform_edt(elements != j) <= reach        # (H, W)
-        s = np.bincount(elements[near], minlength=E) / np.maximum(area, 1)
+        m = math.ceil(reach) + 1                                    # window: j's box + reach
+        ys, xs = boxes[j]
+        win = elements[max(ys.start - m, 0):min(ys.stop + m, H),
+                       max(xs.start - m, 0):min(xs.stop + m, W)]
+        near = distance_transform_edt(win != j) <= reach
+        s = np.bincount(win[near], minlength=E) / np.maximum(area, 1)
         take = (s >= HUG_SHARE) & (s > share) & (area < area[j]) & ~big
         best[take], share[take] = j, s[take]
     i = np.nonzero(best >= 0)[0]
