@@ -6,9 +6,12 @@ computed here on the same images:
 - kmeans8: the image quantized to 8 k-means colours;
 - plain: the fit's PSNR before the detail sprites (neuraltex.texton_detail), i.e. G alone;
 - reshuffle: patch-SWD(input, reshuffle by elements, what ``neuraltex reshuffle`` does with a
-  texture file) vs patch-SWD(input, reconstruction) and vs a random-placement reference (the
-  same textons at uniform random positions, same decoder); swd_shuf_t is the seed's texton
-  reshuffle (features traded between textons of one kind, ``--by textons``); change is the mean
+  texture file: elements trade places in the reconstruction, neuraltex.element_swap) vs
+  patch-SWD(input, reconstruction) and vs a random-placement reference (the same textons at
+  uniform random positions, same decoder); swd_shuf_d decodes the same elements' textons moved
+  instead (the previous version: the tuned decoder renders the new layout); swd_shuf_t is the
+  seed's texton reshuffle (features traded between textons of one kind, ``--by textons``);
+  moved is the share of elements that moved; change is the mean
   |reshuffle - reconstruction| per pixel and channel (a reshuffle that changes nothing would
   score 0 and match the reconstruction's SWD);
 - init: with ``--init-compare N``, the first N images are also tuned from a randomly
@@ -37,6 +40,7 @@ import torch.nn.functional as F
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from cvt.metrics import patch_swd  # noqa: E402
+from neuraltex.element_swap import moved_count, swap_elements  # noqa: E402
 from neuraltex.fit import FitSettings, fit_texture, psnr  # noqa: E402
 from neuraltex.imageio import load_image  # noqa: E402
 from neuraltex.model import DEFAULT_MODEL, build_model, load_model  # noqa: E402
@@ -49,8 +53,8 @@ from neuraltex.tuned_decoder import tuned_model  # noqa: E402
 REAL = Path(__file__).resolve().parents[1] / "data" / "real_textures"
 VISIBLE = 0.005  # mean |reshuffle - reconstruction| of a reshuffle that changes the picture
 COLS = ("flat", "blur", "kmeans8", "plain", "fit", "ssim_blur", "ssim_fit", "swd_rec",
-        "swd_shuf", "swd_shuf_t", "swd_rand", "change", "seconds", "steps", "textons", "kib",
-        "edit_s")
+        "swd_shuf", "swd_shuf_d", "swd_shuf_t", "swd_rand", "moved", "change", "seconds",
+        "steps", "textons", "kib", "edit_s")
 
 
 def references(image: torch.Tensor) -> dict[str, torch.Tensor]:
@@ -86,6 +90,12 @@ def random_placement(textons, seed: int = 0):
     return replace(textons, mu=mu)
 
 
+def moved_share(tex) -> float:
+    """Share of a texture file's elements (not counting the background) that seed 1 moves."""
+    moved, total = moved_count(tex.labels, tex.elements, 1)
+    return moved / max(total, 1)
+
+
 def evaluate(model, image: torch.Tensor, settings: FitSettings, workdir: Path) -> dict:
     row = {}
     refs = references(image)
@@ -104,19 +114,22 @@ def evaluate(model, image: torch.Tensor, settings: FitSettings, workdir: Path) -
     with torch.no_grad():
         rec = decoder.decode(tex.textons, size)[0]
         start = time.perf_counter()
+        shuf = swap_elements(decoder.decode(tex.textons, size)[0], tex.labels, tex.elements,
+                             seed=1)
+        row["edit_s"] = time.perf_counter() - start
         shuffled = reshuffle_elements(tex.textons, tex.labels, tex.elements, channels=plain,
                                       seed=1)
-        shuf = decoder.decode(shuffled, size)[0]
-        row["edit_s"] = time.perf_counter() - start
+        shuf_d = decoder.decode(shuffled, size)[0]
         kinds = texton_kinds(tex.textons, channels=plain)
         shuf_t = decoder.decode(reshuffle(tex.textons, seed=1, kinds=kinds), size)[0]
         rand = decoder.decode(random_placement(tex.textons), size)[0]
     row.update(fit=psnr(rec, image), plain=fit.plain_psnr, ssim_fit=ssim(rec, image),
-               swd_rec=swd(image, rec), swd_shuf=swd(image, shuf), swd_shuf_t=swd(image, shuf_t),
+               swd_rec=swd(image, rec), swd_shuf=swd(image, shuf), swd_shuf_d=swd(image, shuf_d),
+               swd_shuf_t=swd(image, shuf_t), moved=moved_share(tex),
                swd_rand=swd(image, rand), seconds=fit.seconds + fit.detail_seconds,
                steps=fit.steps, textons=fit.textons.num_textons, segmenter=fit.segmenter,
                change=(shuf - rec).abs().mean().item())
-    row["_pictures"] = (rec, shuf, shuf_t)
+    row["_pictures"] = (rec, shuf, shuf_d, shuf_t)
     return row
 
 
@@ -148,6 +161,8 @@ def table(rows: list[tuple[str, dict]]) -> str:
 def _fmt(x, column: str = "") -> str:
     if column == "change":
         return f"{x:.3f}"
+    if column == "moved":
+        return f"{100 * x:.0f} %"
     return f"{x:.0f}" if isinstance(x, int) or abs(x) >= 100 else f"{x:.2f}"
 
 
@@ -168,12 +183,15 @@ def summary(rows: list[tuple[str, dict]]) -> list[str]:
         f"{sum(x['swd_shuf'] < x['swd_shuf_t'] for x in r)}/{n} (mean SWD "
         f"{mean('swd_shuf'):.2f} vs {mean('swd_shuf_t'):.2f}; the texton reshuffle is "
         f"<= 1.25 x reconstruction on {sum(x['swd_shuf_t'] <= 1.25 * x['swd_rec'] for x in r)}"
-        f"/{n}); mean change {mean('change'):.3f}",
+        f"/{n}); mean change {mean('change'):.3f}; elements moved {100 * mean('moved'):.0f} %",
+        f"the same elements' textons moved and decoded (previous version): <= 1.25 x "
+        f"reconstruction on {sum(x['swd_shuf_d'] <= 1.25 * x['swd_rec'] for x in r)}/{n}, "
+        f"mean SWD {mean('swd_shuf_d'):.2f}",
         f"within 1.25 x and changing the picture (mean |reshuffle - reconstruction| >= "
         f"{VISIBLE}): {visible}/{n}",
         f"fit seconds mean {mean('seconds'):.1f} (max {max(x['seconds'] for x in r):.1f}); "
         f"texture file {mean('kib'):.0f} KiB (max {max(x['kib'] for x in r):.0f}); reshuffle "
-        f"decode {mean('edit_s'):.2f} s",
+        f"(decode + swap) {mean('edit_s'):.2f} s",
     ]
 
 

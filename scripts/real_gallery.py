@@ -27,10 +27,10 @@ from neuraltex.edit.animation import animate  # noqa: E402
 from neuraltex.edit.interpolate import interpolate  # noqa: E402
 from neuraltex.edit.transfer import transfer  # noqa: E402
 from neuraltex.edit.vary import vary  # noqa: E402
+from neuraltex.element_swap import swap_elements  # noqa: E402
 from neuraltex.fit import FitSettings, fit_texture  # noqa: E402
 from neuraltex.imageio import load_image, save_frames, save_pil, stack_rows  # noqa: E402
 from neuraltex.model import DEFAULT_MODEL, load_model  # noqa: E402
-from neuraltex.texton_elements import reshuffle_elements  # noqa: E402
 from neuraltex.tuned_decoder import COLOUR, combine, tuned_model  # noqa: E402
 
 REAL = Path(__file__).resolve().parents[1] / "data" / "real_textures"
@@ -75,10 +75,10 @@ def main() -> None:
 def row(model, name, image, t, dec, groups, other_name, u, other) -> list:
     size = tuple(image.shape[-2:])
     plain = dec.generator.feature_channels - 2  # [f_a, d]; detail sprites after
-    tiles = [(name, image), ("fit reconstruction", dec.decode(t, size))]
+    rec = dec.decode(t, size)
+    tiles = [(name, image), ("fit reconstruction", rec)]
     for seed in (1, 2):
-        shuffled = reshuffle_elements(t, *groups, channels=plain, seed=seed)
-        tiles.append((f"reshuffle {seed}", dec.decode(shuffled, size)))
+        tiles.append((f"reshuffle {seed}", swap_elements(rec[0], *groups, seed=seed)[None]))
     app_dec, (app, structure) = combine(model, [(u, other), (t, dec)])
     tiles.append((f"+ {other_name} look", app_dec.decode(transfer(structure, app, "mean", 0),
                                                            size)))

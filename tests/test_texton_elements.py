@@ -139,7 +139,8 @@ def test_shape_classes_group_areas_within_the_ratio_without_bin_edges():
     area = np.array([100.0, 101.0, 108.0, 130.0, 5000.0])
     shapes = ElementShapes(area=area, centre=np.zeros((5, 2)), elongation=np.ones(5),
                            angle=np.zeros(5), sides=np.zeros(5, np.int64),
-                           background=np.array([False] * 4 + [True]))
+                           background=np.array([False] * 4 + [True]),
+                           cov=np.tile(np.eye(2), (5, 1, 1)))
     c = shape_classes(shapes, size_ratio=1.1)
     assert c[0] == c[1] == c[2]            # 100, 101 and 108: within 1.1 of 100
     assert c[3] != c[0] and c[4] == -1     # 130 is not; the background never trades

@@ -104,13 +104,17 @@ def cmd_transfer(args: argparse.Namespace) -> int:
 
 def cmd_reshuffle(args: argparse.Namespace) -> int:
     """Texture diversification (4.4.1). A texture file's elements (whole objects: coins,
-    bricks, stones) trade places with elements of their shape, and the background's textons
-    trade features (--by elements, the default for texture files); otherwise appearance
-    features are permuted among effective textons of the same kind (size and appearance),
-    the background layer keeping its own (--by textons)."""
+    bricks, stones) trade places with elements of their shape in the reconstruction, each
+    fitted to its new place (--by elements, the default for texture files:
+    :mod:`neuraltex.element_swap`); otherwise appearance features are permuted among
+    effective textons of the same kind (size and appearance), the background layer keeping
+    its own, and the result is decoded (--by textons)."""
+    import random
+
+    from neuraltex.element_swap import moved_count, swap_elements
     from neuraltex.imageio import numbered
     from neuraltex.reshuffle import reshuffle
-    from neuraltex.texton_elements import SIZE_RATIO, reshuffle_elements
+    from neuraltex.texton_elements import SIZE_RATIO
     from neuraltex.texton_kinds import texton_kinds
 
     paths = numbered(args.output, args.count)
@@ -123,14 +127,20 @@ def cmd_reshuffle(args: argparse.Namespace) -> int:
         print(f"{args.image}: this texture file has no elements (fit it again to move whole "
               "elements); reshuffling textons")
     kinds = None if by_elements else texton_kinds(textons, channels=plain)
+    rec = _decode(args, decoder, textons, tex.short) if by_elements else None
     for i, path in enumerate(paths):
         seed = None if args.seed is None else args.seed + i
         if by_elements:
-            out = reshuffle_elements(textons, tex.labels, tex.elements, channels=plain,
-                                     seed=seed, size_ratio=args.size_ratio or SIZE_RATIO)
+            ratio = args.size_ratio or SIZE_RATIO
+            seed = random.randrange(2**31) if seed is None else seed  # one draw for both
+            out = swap_elements(rec, tex.labels, tex.elements, seed=seed, size_ratio=ratio)
+            moved, total = moved_count(tex.labels, tex.elements, seed, ratio)
+            print(f"{path}: {moved} of {total} elements trade places (the others have no "
+                  f"partner of their shape within --size-ratio {ratio:g}; the background "
+                  "stays)")
         else:
-            out = reshuffle(textons, seed=seed, kinds=kinds)
-        common.save(_decode(args, decoder, out, tex.short), path)
+            out = _decode(args, decoder, reshuffle(textons, seed=seed, kinds=kinds), tex.short)
+        common.save(out, path)
     return 0
 
 
@@ -320,8 +330,8 @@ def add_commands(sub) -> None:
                    "appearance features trade places between textons of one kind")
     p.add_argument("--size-ratio", type=types.number(1, 4), default=None,
                    help="with --by elements: elements trade places only with elements whose "
-                   "area is within this factor, 1 to 4 (default 1.1; larger moves more objects "
-                   "and shows more seams where an object replaces a larger one)")
+                   "area is within this factor, 1 to 4 (default 1.1; larger moves more objects, "
+                   "each scaled to the place it takes, and shows more seams)")
 
     p = cmd(sub, "interpolate", cmd_interpolate, "blend two textures", "image",
             f"{img}; with --frames {FRAMES_OUT}")

@@ -1,0 +1,107 @@
+"""Elements trading places in the picture (neuraltex.element_swap), and the finer elements
+inside a background-sized mass (neuraltex.texton_elements._finer_in_background)."""
+
+import numpy as np
+import torch
+
+from neuraltex.element_swap import footprints, place_map, swap_elements
+from neuraltex.texton_elements import _finer_in_background
+
+H = W = 64
+CENTRES = [(16, 16), (16, 48), (48, 16), (48, 48)]  # (y, x)
+COLOURS = [(0.9, 0.2, 0.2), (0.2, 0.9, 0.2), (0.2, 0.2, 0.9), (0.9, 0.9, 0.2)]
+
+
+def discs(radii=(7.0, 7.0, 7.0, 7.0)):
+    """Four coloured discs on a grey ground; textons = elements: 0 the ground, 1..4 the discs.
+    -> image (3, H, W), labels (H, W), groups (5,)."""
+    yy, xx = np.mgrid[0:H, 0:W]
+    image = torch.full((3, H, W), 0.5)
+    labels = np.zeros((H, W), np.int64)
+    for i, ((cy, cx), c, r) in enumerate(zip(CENTRES, COLOURS, radii, strict=True)):
+        inside = (yy - cy) ** 2 + (xx - cx) ** 2 <= r * r
+        image[:, torch.from_numpy(inside)] = torch.tensor(c)[:, None]
+        labels[inside] = i + 1
+    return image, labels, np.arange(5)
+
+
+def colour_at(image, y, x):
+    return image[:, y, x]
+
+
+def test_place_map_matches_the_moments_without_turning_or_flipping():
+    rng = np.random.default_rng(0)
+    for _ in range(20):
+        a, b = rng.normal(size=(2, 2)), rng.normal(size=(2, 2))
+        src, dst = a @ a.T + 0.1 * np.eye(2), b @ b.T + 0.1 * np.eye(2)
+        A = place_map(src, dst, False)
+        assert np.allclose(A @ src @ A.T, dst, atol=1e-9)
+        assert np.linalg.det(A) > 0  # a rotation and stretches, never a mirror image
+    same = np.array([[4.0, 1.0], [1.0, 2.0]])
+    assert np.allclose(place_map(same, same, False), np.eye(2))  # nothing turns in place
+    A = place_map(np.eye(2), 2.25 * np.eye(2), True)
+    assert np.allclose(A, 1.5 * np.eye(2))  # round: an isotropic scale
+
+
+def test_elements_trade_places_whole_and_the_ground_stays():
+    image, labels, groups = discs()
+    out = swap_elements(image, labels, groups, seed=3)
+    before = torch.stack([colour_at(image, y, x) for y, x in CENTRES])
+    after = torch.stack([colour_at(out, y, x) for y, x in CENTRES])
+    # the same four colours, not all in their places
+    assert torch.cdist(after, before).amin(1).max() < 1e-4
+    assert (after - before).abs().sum(1).gt(0.1).any()
+    # each disc arrives whole: its place shows one colour out to 5 px from the centre
+    yy, xx = np.mgrid[0:H, 0:W]
+    for (cy, cx), c in zip(CENTRES, after, strict=True):
+        inside = torch.from_numpy((yy - cy) ** 2 + (xx - cx) ** 2 <= 25)
+        assert (out[:, inside] - c[:, None]).abs().max() < 0.05
+    # the ground away from the discs is the input's, bit for bit
+    far = torch.from_numpy(labels == 0) & torch.from_numpy(
+        np.min([(yy - cy) ** 2 + (xx - cx) ** 2 for cy, cx in CENTRES], 0) > 12 ** 2)
+    assert torch.equal(out[:, far], image[:, far])
+    assert torch.equal(out, swap_elements(image, labels, groups, seed=3))  # deterministic
+
+
+def test_an_element_is_scaled_to_the_place_it_takes_so_no_hole_is_left():
+    """Discs of radius 6 and 7 trade places at --size-ratio 1.5: the smaller disc, scaled
+    up, covers the larger one's place out to 6.5 px (unscaled it would leave a grey ring)."""
+    image, labels, groups = discs((6.0, 7.0, 6.0, 7.0))
+    yy, xx = np.mgrid[0:H, 0:W]
+    arrived = 0
+    for seed in range(8):
+        out = swap_elements(image, labels, groups, seed=seed, size_ratio=1.5)
+        for cy, cx in CENTRES[1::2]:  # the large places
+            c = colour_at(out, cy, cx)
+            arrived += bool((c - colour_at(image, cy, cx)).abs().max() > 0.1)
+            ring = torch.from_numpy((yy - cy) ** 2 + (xx - cx) ** 2 <= 6.5 ** 2)
+            assert (out[:, ring] - c[:, None]).abs().max() < 0.15
+    assert arrived  # some seed moves a small disc into a large place
+
+
+def test_labels_at_the_fit_size_follow_a_larger_picture():
+    image, labels, groups = discs()
+    big = torch.nn.functional.interpolate(image[None], scale_factor=2, mode="nearest")[0]
+    out = swap_elements(big, labels, groups, seed=3)
+    small = swap_elements(image, labels, groups, seed=3)
+    for cy, cx in CENTRES:
+        assert torch.allclose(out[:, 2 * cy, 2 * cx], small[:, cy, cx], atol=0.02)
+
+
+def test_footprints_take_the_ground_within_the_margin():
+    _, labels, groups = discs()
+    place = footprints(labels, np.array([True, False, False, False, False]), margin=2)
+    assert place[16, 16 + 8] == 1 and place[16, 16 + 9] == 1  # 1 and 2 px beyond radius 7
+    assert place[16, 16 + 11] == -1 and place[32, 32] == -1   # far ground: nobody's
+
+
+def test_a_background_mass_is_parted_by_the_finer_segments_and_a_backdrop_is_not():
+    labels = np.arange(4).repeat(16).reshape(1, 64).repeat(64, 0)  # 4 textons: columns
+    groups = np.zeros(4, np.int64)                                  # one mass of everything
+    fine = (np.arange(64) >= 32).astype(np.int64)[None].repeat(64, 0)  # two halves
+    parted = _finer_in_background(groups, labels, fine)
+    assert parted[0] == parted[1] != parted[2] == parted[3]
+    backdrop = np.zeros((64, 64), np.int64)                         # one fine segment
+    assert len(set(_finer_in_background(groups, labels, backdrop))) == 1
+    eighths = np.arange(8).repeat(8).reshape(1, 64).repeat(64, 0)  # nothing background-sized
+    assert np.array_equal(_finer_in_background(np.arange(8), eighths, fine), np.arange(8))
