@@ -27,6 +27,7 @@ from __future__ import annotations
 import copy
 import math
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -196,11 +197,14 @@ def dihedral(image: Tensor, textons: Textons, code: int) -> tuple[Tensor, Texton
 
 
 def fit_texture(model, image: Tensor, settings: FitSettings | None = None,
-                bar: bool | None = None) -> TextureFit:
+                bar: bool | None = None,
+                on_eval: Callable[[int, float, float], None] | None = None) -> TextureFit:
     """Tune G and the textons' features to an image (3, H, W) in [0, 1]; returns the fit.
 
     Stops after ``settings.steps`` steps or ``settings.seconds`` of tuning, whichever comes
     first. The segmentation and the first estimate are not counted in ``seconds``.
+    ``on_eval(step, seconds, psnr)`` is called at every full-image PSNR reading (step 0 and
+    every ``eval_every`` steps), e.g. to record the climb.
     """
     from tqdm import tqdm
 
@@ -230,6 +234,8 @@ def fit_texture(model, image: Tensor, settings: FitSettings | None = None,
                     disable=None if bar is None else not bar)
     start, step = time.perf_counter(), 0
     base = score = _full_psnr(model, G, image, current())
+    if on_eval:
+        on_eval(0, 0.0, score)
     while not _done(cfg, step, time.perf_counter() - start):
         loss = _crop_loss(model, G, image, current(), cfg, rng)
         opt.zero_grad(set_to_none=True)
@@ -239,6 +245,8 @@ def fit_texture(model, image: Tensor, settings: FitSettings | None = None,
         if step % cfg.eval_every == 0:
             score = _full_psnr(model, G, image, current())
             progress.set_postfix(psnr=f"{score:.2f} dB")
+            if on_eval:
+                on_eval(step, time.perf_counter() - start, score)
         progress.update(1)
     seconds = time.perf_counter() - start
     progress.close()

@@ -19,6 +19,7 @@ computed here on the same images:
 
     python scripts/eval_real.py                      # 25 real textures, default fit budget
     python scripts/eval_real.py --seconds 20 --limit 5 --init-compare 3
+    python scripts/eval_real.py --steps 300 --init-compare 3 --init-only
     python scripts/eval_real.py --procedural 10      # procedural benchmark images too
 
 Prints one row per image and the means; ``--out FILE.md`` also writes the table.
@@ -206,6 +207,8 @@ def main() -> None:
     ap.add_argument("--procedural", type=int, default=0, help="also N procedural images")
     ap.add_argument("--init-compare", type=int, default=0,
                     help="tune the first N images from random weights too, same budget")
+    ap.add_argument("--init-only", action="store_true",
+                    help="only the --init-compare runs (no table)")
     ap.add_argument("--threads", type=int, default=1, help="torch threads (default 1)")
     ap.add_argument("--out", type=Path, help="also write the table (markdown) here")
     ap.add_argument("--pictures", type=Path, help="folder for input|fit|reshuffle PNGs")
@@ -218,6 +221,9 @@ def main() -> None:
                            steps=args.steps, detail=args.detail)
     images = [(p.stem, load_image(p)) for p in sorted(REAL.glob("*.png"))][:args.limit]
     images += procedural_images(args.procedural)
+    if args.init_only:
+        print("\n".join(init_compare(images[:args.init_compare], settings)))
+        return
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
         for name, image in images:
@@ -244,17 +250,42 @@ def main() -> None:
 
 
 def init_compare(images, settings: FitSettings) -> list[str]:
-    """Pretrained vs random initialization at the same budget, on ``images``."""
+    """Pretrained vs random initialization at the same budget, on ``images``: the final PSNRs
+    and how soon each start reaches the other's final PSNR of G alone (the tuning's climb,
+    read every ``eval_every`` steps; the target: the shipped start wins by 2 dB or gets
+    there 2x sooner)."""
     if not images:
         return []
     pre, rnd = load_model(DEFAULT_MODEL), build_model(load_model(DEFAULT_MODEL).config).eval()
     out = []
     for name, image in images:
-        a, b = fit_texture(pre, image, settings), fit_texture(rnd, image, settings)
+        (a, ca), (b, cb) = (_climb(m, image, settings) for m in (pre, rnd))
         out.append(f"init {name}: pretrained {a.plain_psnr:.2f} dB vs random "
                    f"{b.plain_psnr:.2f} dB before sprites, {a.psnr:.2f} vs {b.psnr:.2f} with "
-                   f"them ({a.steps} / {b.steps} steps)")
+                   f"them ({a.steps} / {b.steps} steps); random's final level: "
+                   f"{_sooner(ca, cb, b.plain_psnr)}; pretrained's final level: "
+                   f"{_sooner(ca, cb, a.plain_psnr)}")
     return out
+
+
+def _climb(model, image, settings: FitSettings):
+    """(fit, [(step, seconds, PSNR of G alone)]) of one tuning run."""
+    curve = []
+    fit = fit_texture(model, image, settings, on_eval=lambda *r: curve.append(r))
+    return fit, curve
+
+
+def _reaches(curve, level: float):
+    """First (step, seconds) of ``curve`` at or above ``level`` dB, None if never."""
+    return next(((st, sec) for st, sec, p in curve if p >= level - 1e-9), None)
+
+
+def _sooner(pre, rnd, level: float) -> str:
+    """When each climb first reaches ``level`` dB, and how many times sooner the pretrained."""
+    a, b = _reaches(pre, level), _reaches(rnd, level)
+    say = lambda h: "never" if h is None else f"step {h[0]}"  # noqa: E731
+    ratio = f", {b[0] / max(a[0], 1):.1f}x sooner" if a and b else ""
+    return f"pretrained {say(a)}, random {say(b)}{ratio}"
 
 
 if __name__ == "__main__":

@@ -168,6 +168,18 @@ def test_fit_improves_the_reconstruction_and_is_reproducible(model, fitted):
     assert again.psnr == pytest.approx(fitted.psnr, abs=1e-4)
 
 
+def test_fit_reports_its_climb_at_every_reading(model, fitted):
+    curve = []
+    fit = fit_texture(model, discs(32), FitSettings(steps=40, seconds=None, eval_every=10,
+                                                    segmenter="felzenszwalb", crop=32),
+                      on_eval=lambda *r: curve.append(r))
+    assert [c[0] for c in curve] == [0, 10, 20, 30, 40]
+    assert curve[0][2] == pytest.approx(fit.base_psnr) and curve[-1][2] == pytest.approx(
+        fit.plain_psnr, abs=1e-4)
+    assert all(b[1] >= a[1] for a, b in zip(curve, curve[1:]))  # seconds grow
+    assert curve[-1][2] == pytest.approx(fitted.plain_psnr, abs=1e-4)  # no effect on the fit
+
+
 def test_fit_stops_at_its_time_budget(model):
     fit = fit_texture(model, discs(32), FitSettings(seconds=0.5, segmenter="slic"))
     assert fit.seconds < 5 and fit.steps >= 1
