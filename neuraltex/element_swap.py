@@ -67,17 +67,24 @@ def source_grid(shapes: ElementShapes, target: np.ndarray,
     """(H, W, 2) pixel x, y each output pixel samples — the moment-matched map of the element
     that arrives at its place (``target[e]``: the place element e takes), identity elsewhere
     — and (H, W) bool: the pixels of places that changed hands."""
+    from scipy.ndimage import find_objects
+
     H, W = place.shape
     ys, xs = np.mgrid[0:H, 0:W].astype(np.float64)
     grid, moved = np.stack([xs, ys], -1), np.zeros((H, W), bool)
     arrives = np.arange(len(target))
     arrives[target] = np.arange(len(target))  # the element that arrives at place p
+    boxes = find_objects(place + 1, max_label=len(target))  # each place's bounding slices
     for p in np.nonzero(arrives != np.arange(len(target)))[0]:
-        e, m = arrives[p], place == p
+        if boxes[p] is None:
+            continue
+        e, box = arrives[p], boxes[p]
+        m = place[box] == p
         round_ = max(shapes.elongation[e], shapes.elongation[p]) < ROUND
         Ai = np.linalg.inv(place_map(shapes.cov[e], shapes.cov[p], round_))
-        grid[m] = shapes.centre[e] + (grid[m] - shapes.centre[p]) @ Ai.T
-        moved |= m
+        g = grid[box]
+        g[m] = shapes.centre[e] + (g[m] - shapes.centre[p]) @ Ai.T
+        moved[box] |= m
     return grid, moved
 
 
