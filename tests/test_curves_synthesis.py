@@ -88,6 +88,9 @@ def test_eval_stages_before_and_after_the_end_repair(waves):
     raw_ends = int(((run.raw.degree() == 1) & inner).sum())
     inner = (run.final.pos > 8).all(1) & (run.final.pos < 192).all(1)
     assert int(((run.final.degree() == 1) & inner).sum()) <= raw_ends
+    # the baseline: reconnected and faired only -- no sample pruned, no edge added
+    assert len(run.plain) == len(run.raw) and torch.equal(run.plain.edges, run.raw.edges)
+    assert not torch.equal(run.plain.pos, run.raw.pos)  # faired
 
 
 def test_our_synthesis_resolves_unbacked_ends_itself(waves):
