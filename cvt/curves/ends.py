@@ -3,7 +3,9 @@ the expected degree of eq. 18; sec. 4.4: no dangling stubs the exemplar does not
 
 After the greedy eq. 22 an output sample can be left with degree 1 although the input samples
 its neighborhoods matched sit inside strokes (expected degree >= 1.5): a break the exemplar
-does not have — unless the sample's own neighborhood matched an input end (``end_evidence``).
+does not have — unless the sample's own neighborhood matched an input end (``end_evidence``)
+that looks like it: an input end capped by a discrete element (a circuit's pad) backs only an
+output end with an element near it too.
 Such *unwanted ends* are resolved with local evidence only (no global target):
 
 1. two unwanted ends facing each other within ``reach`` are joined, nearest pairs first (a
@@ -90,10 +92,30 @@ def run_on(pos: np.ndarray, nbr: list[list[int]], target: np.ndarray, ends: np.n
     return new
 
 
-def end_evidence(want: np.ndarray, center_degree: np.ndarray) -> np.ndarray:
+def end_evidence(want: np.ndarray, center_degree: np.ndarray,
+                 bare: np.ndarray | None = None) -> np.ndarray:
     """Expected degrees (eq. 18) capped at 1 where the sample's own neighborhood center was
-    matched to an input end. Shape: (N,), (N,) -> (N,)."""
-    return np.where(center_degree == 1, np.minimum(want, 1.0), want)
+    matched to an input end; raised to a stroke's where that input end is capped by a discrete
+    element (a circuit's pad) and the sample has none near it (``bare``, (N,) bool: an end
+    the exemplar does not have there). Shape: (N,), (N,) -> (N,)."""
+    want = np.where(center_degree == 1, np.minimum(want, 1.0), want)
+    if bare is None:
+        return want
+    return np.where(bare, np.maximum(want, WANT_STROKE), want)
+
+
+def near_element(g: CurveGraph, reach: float) -> np.ndarray:
+    """Curve samples with a discrete element closer than ``reach``. Shape: -> (N,) bool."""
+    pos, el = g.pos.numpy(), g.kind.numpy() >= 0
+    out = np.zeros(len(g), dtype=bool)
+    if el.any():
+        out[~el] = cKDTree(pos[el]).query(pos[~el], distance_upper_bound=reach)[0] < reach
+    return out
+
+
+def capped_ends(g: CurveGraph, reach: float) -> np.ndarray:
+    """Curve ends (degree 1) with a discrete element closer than ``reach``. Shape: (N,) bool."""
+    return near_element(g, reach) & (g.degree().numpy() == 1)
 
 
 def unwanted_ends(g: CurveGraph, want: np.ndarray) -> np.ndarray:

@@ -24,7 +24,7 @@ import torch
 
 from cvt.assignment import assign_positions
 from cvt.curves.edges import assign_edges, expected_degree
-from cvt.curves.ends import close_breaks, drop_broken, end_evidence
+from cvt.curves.ends import capped_ends, close_breaks, drop_broken, end_evidence, near_element
 from cvt.curves.existence import existence, missing_samples
 from cvt.curves.graph import CurveGraph, nearest_edges
 from cvt.curves.init import box_inside, patch_init
@@ -39,6 +39,7 @@ from cvt.search import SearchParams, patchmatch
 from cvt.synthesis import _input_index
 
 Inside = Callable[[torch.Tensor], torch.Tensor]
+CAP_REACH = 1.5  # a discrete element this many deltas from a stroke end caps it (a pad)
 
 
 @dataclass(frozen=True)
@@ -95,6 +96,7 @@ class _Level:
     inside: Inside
     n_fixed: int
     fixed_edges: torch.Tensor
+    capped: np.ndarray  # (N_in,) bool: input ends with a discrete element at them
 
 
 def synthesize_curves(cx: CurveExemplar, size: tuple[float, float],
@@ -143,7 +145,8 @@ def _level_state(lv, inp, cx, cfg, domain, fixed) -> _Level:
     index = _input_index(inp, cx.box, lv, cfg)
     n_fixed = 0 if fixed is None else len(fixed)
     keep = torch.zeros(0, 2, dtype=torch.long) if fixed is None else fixed.edges
-    return _Level(lv, inp, edge_embedding(inp), index, domain, n_fixed, keep)
+    return _Level(lv, inp, edge_embedding(inp), index, domain, n_fixed, keep,
+                  capped_ends(inp, CAP_REACH * lv.delta))
 
 
 def _drop_near(out: CurveGraph, fixed: CurveGraph, delta: float) -> CurveGraph:
@@ -208,8 +211,11 @@ def _assign(out: CurveGraph, m, s: _Level, cfg: CurveConfig):
     pos = assign_positions(out.pos, m, s.inp.pos, huber=cfg.huber * s.lv.delta)
     pos[: s.n_fixed] = out.pos[: s.n_fixed]
     out = out.with_(pos=pos, style=_voted_style(out, m, s))
-    want = end_evidence(expected_degree(m, out, s.inp).numpy(),
-                        s.inp.degree().numpy()[m.center.numpy()])
+    center = m.center.numpy()
+    bare = s.capped[center] & ~near_element(out, CAP_REACH * s.lv.delta) if s.capped.any() \
+        else None
+    want = end_evidence(expected_degree(m, out, s.inp).numpy(), s.inp.degree().numpy()[center],
+                        bare)
     if not cfg.connectivity:  # the no-connectivity baseline: samples joined to their nearest
         return out.with_(edges=nearest_edges(out, 1.6 * s.lv.delta)), want
     out = out.with_(edges=assign_edges(m, out, s.inp, cfg.reach * s.lv.delta,
