@@ -81,7 +81,7 @@ def autocomplete(cx: CurveExemplar, partial: CurveExemplar, box, config: CurveCo
 
     delta = levels[-1].delta
     fixed = len(drawn(delta))
-    res = run_boxed(cx, box, cfg, None, drawn)
+    res = run_boxed(cx, box, cfg, None, drawn, levels=levels)
     g = repair_ends(res.graph, res.inputs[-1], cx.box, box, delta, keep=fixed)
     g = prune(g, res.inputs[-1], cx.box, box, delta, keep=fixed)
     g = fair_like(g, res.inputs[-1], cx.box, box, delta, keep=fixed)  # the user's stay put

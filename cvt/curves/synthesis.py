@@ -116,14 +116,16 @@ def synthesize_curves(cx: CurveExemplar, size: tuple[float, float],
 
 
 def run_boxed(cx: CurveExemplar, out_box, cfg: CurveConfig, inside: Inside | None,
-              fixed: Callable[[float], CurveGraph] | None, on_iteration=None) -> CurveResult:
+              fixed: Callable[[float], CurveGraph] | None, on_iteration=None,
+              levels: list[Level] | None = None) -> CurveResult:
     """The synthesis into ``out_box`` (x0, y0, x1, y1), around the graph ``fixed(delta)``
-    (sampled at each level's spacing; its styles index ``cx.styles``)."""
+    (sampled at each level's spacing; its styles index ``cx.styles``); ``levels``: the
+    caller's ``curve_levels(cx, cfg)`` if it has them."""
     t0 = time.perf_counter()
     gen = torch.Generator().manual_seed(cfg.seed)
     size = (out_box[2] - out_box[0], out_box[3] - out_box[1])
     domain = box_inside(out_box, inside)
-    levels = curve_levels(cx, cfg)
+    levels = levels or curve_levels(cx, cfg)
     res = CurveResult(CurveGraph.empty(cx.styles), size, levels[-1].delta)
     res.inputs = [exemplar_graph(cx, lv.delta) for lv in levels]
     out = patch_init(res.inputs[0], cx.box, out_box, 2 * levels[0].radius, domain, gen,
