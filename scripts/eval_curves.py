@@ -23,6 +23,7 @@ import numpy as np
 import torch
 
 from cvt.curves.baselines import METHODS, CurveRun, run_staged
+from cvt.curves.ends import CAP_REACH, capped_ends
 from cvt.curves.graph import CurveGraph
 from cvt.curves.reconstruction import curves_svg
 from cvt.curves.sampling import exemplar_graph
@@ -61,12 +62,26 @@ them. random: exemplar pieces on a grid, with the finish. The "before" columns
 (cvt.curves.baselines.CurveRun.raw) show what each synthesis achieves alone."""
 
 
-def measure(svg: str, box, delta: float):
+def read_graph(svg: str, delta: float) -> CurveGraph:
     try:
-        g = exemplar_graph(curve_exemplar(parse_svg(svg.encode())), delta)
+        return exemplar_graph(curve_exemplar(parse_svg(svg.encode())), delta)
     except InputError:  # nothing left to draw
-        g = CurveGraph.empty([])
-    return graph_stats(g, box, delta)
+        return CurveGraph.empty([])
+
+
+def measure(svg: str, box, delta: float):
+    return graph_stats(read_graph(svg, delta), box, delta)
+
+
+def capped_share(svg: str, box, delta: float) -> list[int]:
+    """[interior stroke ends, those with a discrete element at them (a circuit's pad)]."""
+    g = read_graph(svg, delta)
+    x0, y0, x1, y1 = box
+    p, m = g.pos, 2 * delta
+    inner = ((p[:, 0] > x0 + m) & (p[:, 0] < x1 - m) & (p[:, 1] > y0 + m) & (p[:, 1] < y1 - m)
+             & (g.kind < 0)).numpy()
+    ends = inner & (g.degree().numpy() == 1)
+    return [int(ends.sum()), int((ends & capped_ends(g, CAP_REACH * delta)).sum())]
 
 
 def evaluate(path: Path, scale: float, out_dir: Path | None, cfg: CurveConfig,
@@ -80,7 +95,8 @@ def evaluate(path: Path, scale: float, out_dir: Path | None, cfg: CurveConfig,
     ref = measure(path.read_text(), cx.box, delta)
     ref_img = render_svg(path.read_text())
     row = {"exemplar": name, "samples_in": ref.samples, "ends_in": ref.ends,
-           "degree_in": ref.degree.tolist()}
+           "degree_in": ref.degree.tolist(), "capped_in": capped_share(path.read_text(), cx.box,
+                                                                      delta)}
     out_box = (x, y, x + size[0], y + size[1])
     for method in methods:
         t = time.perf_counter()
@@ -96,7 +112,8 @@ def evaluate(path: Path, scale: float, out_dir: Path | None, cfg: CurveConfig,
             st = measure(svg, out_box, delta)
             row[key] = {**compare(st, ref), "swd": patch_swd(render_svg(svg), ref_img, seed),
                         "seconds": seconds, "samples": len(g), "ends": st.ends,
-                        "degree": st.degree.tolist(), "raw": raw}
+                        "degree": st.degree.tolist(), "raw": raw,
+                        "capped": capped_share(svg, out_box, delta)}
     return row
 
 
@@ -138,6 +155,18 @@ def no_end_lines(rows: list[dict]) -> list[str]:
     return out
 
 
+def capped_lines(rows: list[dict]) -> list[str]:
+    """Exemplars whose stroke ends carry a discrete element: how many output ends do."""
+    out = []
+    for r in rows:
+        n, c = r["capped_in"]
+        if c:
+            got = "; ".join(f"{m} {r[m]['capped'][1]} of {r[m]['capped'][0]}" for m in ROWS)
+            out.append(f"- {r['exemplar']}: interior ends with an element at them (within "
+                       f"{CAP_REACH:g} delta): exemplar {c} of {n}; {got}")
+    return out
+
+
 def summary(rows: list[dict]) -> list[str]:
     lines = ["", "| method | " + " | ".join(KEYS) + " | swd | s |", "|---" * (len(KEYS) + 3) + "|"]
     for method in ROWS:
@@ -150,7 +179,7 @@ def summary(rows: list[dict]) -> list[str]:
     lines += [f"- {k}: " + verdict(rows, k, lambda v: v) for k in TARGET]
     lines += ["", "Beside them, against the stronger no-connectivity+finish:"]
     lines += [f"- {k}: " + verdict(rows, k, lambda v: v, STRONG) for k in TARGET]
-    return lines + no_end_lines(rows) + ["", NOTES]
+    return lines + no_end_lines(rows) + capped_lines(rows) + ["", NOTES]
 
 
 def stages_table(rows: list[dict]) -> list[str]:

@@ -119,3 +119,13 @@ def test_an_end_matched_to_a_padded_input_end_needs_its_pad():
     got = end_evidence(want, centers_are_ends, bare)
     assert got[0] >= 1.5 and got[1] == 1.0  # the bare one unwanted, the padded one backed
     assert (end_evidence(want, centers_are_ends) == 1.0).all()
+
+
+def test_ends_cut_by_the_exemplar_canvas_back_no_output_end():
+    from cvt.curves.synthesis import run_on_degree
+
+    g = _graph([[[0, 50], [50, 50]]])  # starts on the canvas border, ends inside
+    deg = run_on_degree(g, (0.0, 0.0, 100.0, 100.0), 2.0)
+    x = g.pos[:, 0]
+    assert int(deg[x.argmin()]) == 2 and int(deg[x.argmax()]) == 1
+    assert int(g.degree()[x.argmin()]) == 1  # the graph itself is unchanged

@@ -105,3 +105,21 @@ def test_our_synthesis_resolves_unbacked_ends_itself(waves):
 
     off = ends(replace(FAST, end_reach=0.0, fragment=0, init_candidates=1))
     assert ends(FAST) < off
+
+
+def test_coastline_strokes_run_on_instead_of_ending():
+    """A coastline crop has no stroke ends inside: unwanted ends grow and join farther
+    (CurveConfig.grow, free_reach); without them more strokes stop inside."""
+    from dataclasses import replace
+
+    cx = load_curves(Path(__file__).resolve().parents[1] / "data" / "real_curves" / "coastline.svg")
+    w, h = cx.exemplar.viewbox[2:]
+
+    def ends(cfg):
+        g = synthesize_curves(cx, (w, h), cfg).graph
+        m = 0.05 * w
+        inner = ((g.pos[:, 0] > m) & (g.pos[:, 0] < w - m) & (g.pos[:, 1] > m)
+                 & (g.pos[:, 1] < h - m) & (g.kind < 0))
+        return int(((g.degree() == 1) & inner).sum())
+
+    assert ends(FAST) < ends(replace(FAST, grow=0.5, free_reach=4.0))

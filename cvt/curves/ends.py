@@ -33,6 +33,7 @@ from cvt.curves.graph import CurveGraph, components
 
 WANT_STROKE = 1.5  # expected degree above which a sample lies inside a stroke
 WANT_JUNCTION = 2.5
+CAP_REACH = 1.5  # a discrete element this many deltas from a stroke end caps it (a pad)
 
 
 def outward(pos: np.ndarray, nbr: list[list[int]], ends: np.ndarray) -> np.ndarray:

@@ -25,6 +25,7 @@ import torch
 from cvt.assignment import assign_positions
 from cvt.curves.edges import assign_edges, expected_degree
 from cvt.curves.ends import (
+    CAP_REACH,
     capped_ends,
     close_breaks,
     drop_broken,
@@ -46,7 +47,6 @@ from cvt.search import SearchParams, patchmatch
 from cvt.synthesis import _input_index
 
 Inside = Callable[[torch.Tensor], torch.Tensor]
-CAP_REACH = 1.5  # a discrete element this many deltas from a stroke end caps it (a pad)
 
 
 @dataclass(frozen=True)
