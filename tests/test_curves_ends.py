@@ -129,3 +129,12 @@ def test_ends_cut_by_the_exemplar_canvas_back_no_output_end():
     x = g.pos[:, 0]
     assert int(deg[x.argmin()]) == 2 and int(deg[x.argmax()]) == 1
     assert int(g.degree()[x.argmin()]) == 1  # the graph itself is unchanged
+
+
+def test_ends_on_the_domain_rim_are_not_joined():
+    g = _graph([[[0, 50], [45, 50]], [[51, 50], [100, 50]]])  # a 6-unit break
+    rim = np.zeros(len(g), dtype=bool)
+    x = g.pos[:, 0].numpy()
+    rim[(x > 40) & (x < 56)] = True  # the border runs through the break
+    assert len(close_breaks(g, _want(g, 2.0), reach=8.0, rim=rim).edges) == len(g.edges)
+    assert len(close_breaks(g, _want(g, 2.0), reach=8.0).edges) == len(g.edges) + 1

@@ -150,10 +150,13 @@ def _reclose(pos, nbr, ends, done: set[int], reach: float, shortest: int
 
 
 def close_breaks(g: CurveGraph, want: np.ndarray, reach: float, facing: float = 0.3,
-                 min_loop: int = 6) -> CurveGraph:
+                 min_loop: int = 6, rim: np.ndarray | None = None) -> CurveGraph:
     """Steps 1 to 3 above. ``want`` (N,): eq. 18 expected degrees. Two ends of one stroke
-    are only joined when ``min_loop`` or more edges apart (no tiny loops)."""
+    are only joined when ``min_loop`` or more edges apart (no tiny loops). Ends on the
+    ``rim`` (N,) bool (the domain border, which cuts strokes) are left as they are."""
     ends = unwanted_ends(g, want)
+    if rim is not None:
+        ends = ends[~rim[ends]]
     if len(ends) == 0:
         return g
     pos, nbr = g.pos.numpy(), g.adjacency()

@@ -253,8 +253,10 @@ def _assign(out: CurveGraph, m, s: _Level, cfg: CurveConfig):
         return out.with_(edges=nearest_edges(out, 1.6 * s.lv.delta)), want
     out = out.with_(edges=assign_edges(m, out, s.inp, cfg.reach * s.lv.delta,
                                        keep=s.fixed_edges))
-    reach = cfg.free_reach if s.end_free else cfg.end_reach
-    return close_breaks(out, want, reach * s.lv.delta), want
+    if not s.end_free:
+        return close_breaks(out, want, cfg.end_reach * s.lv.delta), want
+    rim = _rim(out.pos, s.inside, 2 * s.lv.delta)  # the farther joins stay off the border
+    return close_breaks(out, want, cfg.free_reach * s.lv.delta, rim=rim), want
 
 
 def _voted_style(out: CurveGraph, m, s: _Level) -> torch.Tensor:
