@@ -1,5 +1,6 @@
 """Curve synthesis speed: seconds for outputs of about ``--target`` finest samples, and for
-autocomplete of a local region, on 1 torch thread. The seed reports ~160 s for ~1,000 output
+autocomplete of a local region, on 1 torch thread: wall and CPU seconds (process time; on a
+loaded machine wall is about CPU x load / cores). The seed reports ~160 s for ~1,000 output
 samples on 16 cores (its C++); the issue's targets are <= 30 s and <= 2 s on 2 cores.
 
     python scripts/bench_curves.py [--target 1000] [NAME ...]
@@ -9,6 +10,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import os
 import time
 from pathlib import Path
 
@@ -31,8 +33,8 @@ def main() -> None:
     args = ap.parse_args()
     torch.set_num_threads(1)
     cfg = CurveConfig()
-    print("| exemplar | output size | samples | synthesis s | autocomplete s |")
-    print("|---|---|---:|---:|---:|")
+    print("| exemplar | output size | samples | synthesis s | CPU s | autocomplete s | CPU s |")
+    print("|---|---|---:|---:|---:|---:|---:|")
     for name in args.names:
         cx = load_curves(EXEMPLARS / f"{name}.svg")
         w, h = cx.exemplar.viewbox[2:]
@@ -41,18 +43,19 @@ def main() -> None:
         n_in = int(((pos[:, 0] >= x0) & (pos[:, 0] <= x1) & (pos[:, 1] >= y0)
                     & (pos[:, 1] <= y1)).sum())
         scale = math.sqrt(args.target / n_in)
-        t = time.perf_counter()
+        t, c = time.perf_counter(), time.process_time()
         g, _ = run_curves("ours", cx, (scale * w, scale * h), cfg)
-        synth = time.perf_counter() - t
+        synth, synth_cpu = time.perf_counter() - t, time.process_time() - c
         # autocomplete: the exemplar's left half as the drawing, its right half predicted
         half = [s for s in cx.strokes if s.points[:, 0].max() < w / 2]
         drawn = curve_exemplar(parse_svg(EXEMPLARS.joinpath(f"{name}.svg").read_bytes()))
         drawn.strokes = half or cx.strokes[:1]
-        t = time.perf_counter()
+        t, c = time.perf_counter(), time.process_time()
         autocomplete(cx, drawn, (w / 2 - 10, 0, w / 2 + w / 4, h / 2), CurveConfig(levels=2))
-        ac = time.perf_counter() - t
+        ac, ac_cpu = time.perf_counter() - t, time.process_time() - c
         print(f"| {name} | {scale * w:.0f} x {scale * h:.0f} | {len(g)} | {synth:.1f} | "
-              f"{ac:.2f} |", flush=True)
+              f"{synth_cpu:.1f} | {ac:.2f} | {ac_cpu:.2f} |", flush=True)
+    print(f"load average (1 min) at the end: {os.getloadavg()[0]:.1f}")
 
 
 if __name__ == "__main__":

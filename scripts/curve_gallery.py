@@ -1,6 +1,7 @@
-"""Pictures of curve synthesis (docs/): every shipped curve exemplar | the no-connectivity
-baseline | ours, at 1.5x, same seed and settings as scripts/eval_curves.py; and autocomplete
-examples (drawing | drawing + prediction).
+"""Pictures of curve synthesis (docs/): every shipped curve exemplar | the issue's
+no-connectivity baseline (nearest-neighbour reconnection, no end repair) | the same with ours'
+finish | ours, at 1.5x, same seed and settings as scripts/eval_curves.py (one baseline run for
+both baseline pictures); and autocomplete examples (drawing | drawing + prediction).
 
     python scripts/curve_gallery.py [--out docs/curves_gallery.png]
         [--autocomplete docs/curves_autocomplete.png] [NAME ...]
@@ -15,7 +16,7 @@ from pathlib import Path
 from PIL import Image, ImageDraw
 
 from cvt.curves.autocomplete import autocomplete, region_around
-from cvt.curves.baselines import run_curves
+from cvt.curves.baselines import run_staged
 from cvt.curves.reconstruction import curves_svg
 from cvt.curves.strokes import curve_exemplar, load_curves
 from cvt.curves.synthesis import CurveConfig
@@ -58,10 +59,10 @@ def gallery_row(path: Path, cfg: CurveConfig, scale: float, height: int) -> Imag
     cx = load_curves(path)
     size = (scale * cx.exemplar.viewbox[2], scale * cx.exemplar.viewbox[3])
     pics = [render(path.read_text(), round(height / scale))]
-    for method in ("no-connectivity", "ours"):
-        g, _ = run_curves(method, cx, size, cfg)
+    base = run_staged("no-connectivity", cx, size, cfg)
+    for g in (base.plain, base.final, run_staged("ours", cx, size, cfg).final):
         pics.append(render(curves_svg(cx.exemplar, cx.element_centers(), g, size), height))
-    return labelled(pics, [name, "no connectivity + nearest", "ours"])
+    return labelled(pics, [name, "no connectivity, nearest", "same + our finish", "ours"])
 
 
 def autocomplete_row(name: str, cfg: CurveConfig, height: int) -> Image.Image:

@@ -153,3 +153,43 @@ def test_real_curve_helpers(tmp_path):
     glyphs = mod.read_jhf(font)
     assert glyphs[32] == (-8, 8, []) and len(glyphs[33][2]) == 2
     assert glyphs[33][2][0].tolist() == [[0, -12], [0, 2]] and len(glyphs[33][2][1]) == 3
+
+
+def test_fair_like_keeps_the_corners_of_a_zigzag_hatch():
+    """Straight runs at +-30 degrees, redrawn with a wobble: the corner-keeping strengths
+    straighten the runs and leave the corners; the 60-degree ones smooth the corners too."""
+    from cvt.curves.fairing import STRENGTHS
+    from cvt.curves.stats import tv
+
+    rng = np.random.default_rng(0)
+    turn = math.radians(30)
+    pts, p = [], np.array([0.0, 20.0])
+    for k in range(8):  # a zigzag of 10-unit runs
+        a = turn if k % 2 else -turn
+        for _ in range(5):
+            pts.append(p.copy())
+            p = p + 2.0 * np.array([math.cos(a), math.sin(a)])
+    zig = np.array(pts)
+    ex = _graph([zig], delta=2.0)
+    out = _graph([zig + rng.normal(0, 0.2, zig.shape)], delta=2.0)
+    ref = curvature_hist(ex, BOX, 2.0)
+    got = tv(curvature_hist(fair_like(out, ex, BOX, BOX, 2.0), BOX, 2.0), ref)
+    old = min(tv(curvature_hist(fair(out, k, c, mu=mu), BOX, 2.0), ref)
+              for k, mu, c in STRENGTHS if c == 60.0)
+    assert got < old
+
+
+def test_short_pad_to_pad_leads_stay_where_the_exemplar_has_pads():
+    from cvt.curves.cleanup import prune
+
+    def padded(polylines):
+        g = _graph(polylines)
+        deg1 = torch.nonzero(g.degree() == 1).flatten()
+        pads = g.select(deg1).with_(kind=torch.zeros(len(deg1), dtype=torch.long),
+                                    edges=torch.zeros(0, 2, dtype=torch.long))
+        return g.cat(pads)
+
+    ex = padded([[[20, 20], [60, 20]], [[20, 60], [20, 90]]])  # 20+ samples each, pads at ends
+    lead = [[50, 50], [58, 50]]  # 5 samples: smaller than the exemplar's pieces
+    assert len(prune(padded([lead]), ex, BOX, BOX, 2.0)) == len(padded([lead]))
+    assert int((prune(_graph([lead]), ex, BOX, BOX, 2.0).kind < 0).sum()) == 0  # bare: dust

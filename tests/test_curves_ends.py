@@ -4,7 +4,13 @@ similarity (cvt.curves.init) and the before / after stages of the eval (cvt.curv
 import numpy as np
 import torch
 
-from cvt.curves.ends import close_breaks, drop_broken, end_evidence, unwanted_ends
+from cvt.curves.ends import (
+    capped_ends,
+    close_breaks,
+    drop_broken,
+    end_evidence,
+    unwanted_ends,
+)
 from cvt.curves.graph import StrokeStyle
 from cvt.curves.init import patch_init
 from cvt.curves.sampling import stroke_graph
@@ -96,3 +102,39 @@ def test_an_end_matched_to_an_input_end_is_wanted():
     want = np.array([2.0, 1.8, 2.0])
     capped = end_evidence(want, np.array([2, 1, 3]))
     assert capped.tolist() == [2.0, 1.0, 2.0]
+
+
+def test_an_end_matched_to_a_padded_input_end_needs_its_pad():
+    """A circuit's input ends carry a pad (a discrete element): an output end matched to one
+    but without a pad near it is not backed (expected degree raised to a stroke's)."""
+    g = _graph([[[10, 50], [40, 50]]])
+    pad = g.select(torch.tensor([0])).with_(kind=torch.tensor([0]))  # an element at (10, 50)
+    padded = g.cat(pad)
+    capped = capped_ends(padded, 3.0)
+    assert capped[:len(g)].sum() == 1 and not capped[len(g):].any()  # one end, not the far one
+    assert not capped_ends(g, 3.0).any()  # no elements: nothing capped
+    want = np.array([1.4, 1.4, 2.0])
+    centers_are_ends = np.array([1, 1, 1])
+    bare = np.array([True, False, False])
+    got = end_evidence(want, centers_are_ends, bare)
+    assert got[0] >= 1.5 and got[1] == 1.0  # the bare one unwanted, the padded one backed
+    assert (end_evidence(want, centers_are_ends) == 1.0).all()
+
+
+def test_ends_cut_by_the_exemplar_canvas_back_no_output_end():
+    from cvt.curves.synthesis import run_on_degree
+
+    g = _graph([[[0, 50], [50, 50]]])  # starts on the canvas border, ends inside
+    deg = run_on_degree(g, (0.0, 0.0, 100.0, 100.0), 2.0)
+    x = g.pos[:, 0]
+    assert int(deg[x.argmin()]) == 2 and int(deg[x.argmax()]) == 1
+    assert int(g.degree()[x.argmin()]) == 1  # the graph itself is unchanged
+
+
+def test_ends_on_the_domain_rim_are_not_joined():
+    g = _graph([[[0, 50], [45, 50]], [[51, 50], [100, 50]]])  # a 6-unit break
+    rim = np.zeros(len(g), dtype=bool)
+    x = g.pos[:, 0].numpy()
+    rim[(x > 40) & (x < 56)] = True  # the border runs through the break
+    assert len(close_breaks(g, _want(g, 2.0), reach=8.0, rim=rim).edges) == len(g.edges)
+    assert len(close_breaks(g, _want(g, 2.0), reach=8.0).edges) == len(g.edges) + 1

@@ -115,3 +115,17 @@ def test_groups_with_transforms_are_strokes():
     cx = curve_exemplar(parse_svg(_svg(body)))
     assert len(cx.strokes) == 2 and [(s.color, s.width) for s in cx.styles] == [("#123456", 3)]
     assert np.allclose(cx.strokes[0].points[0], [10, 10])  # the group's translate applied
+
+
+def test_an_end_snaps_to_the_nearest_other_stroke_not_its_own():
+    # the foot ends 1 unit above line A (y = 50): joins it at x = 30, not the nearer-by arc of
+    # its own stroke; the hook's end comes back 1 unit from its own start: not joined to itself
+    svg = _svg('<path d="M10 50 L90 50" stroke="black" fill="none"/>'
+               '<path d="M30 20 L30 49" stroke="black" fill="none"/>'
+               '<path d="M60 80 L70 80 L70 85 L61 81" stroke="black" fill="none"/>')
+    g = exemplar_graph(curve_exemplar(parse_svg(svg)), 5.0)
+    tee = g.pos[g.degree() == 3]
+    assert tee.shape[0] == 1 and torch.allclose(tee[0], torch.tensor([30.0, 50.0]).double(),
+                                                atol=0.6)
+    hook = (g.pos[:, 1] > 70)
+    assert int((g.degree()[hook] == 1).sum()) == 2

@@ -88,6 +88,9 @@ def test_eval_stages_before_and_after_the_end_repair(waves):
     raw_ends = int(((run.raw.degree() == 1) & inner).sum())
     inner = (run.final.pos > 8).all(1) & (run.final.pos < 192).all(1)
     assert int(((run.final.degree() == 1) & inner).sum()) <= raw_ends
+    # the issue's baseline: reconnected and faired only -- no sample pruned, no edge added
+    assert len(run.plain) == len(run.raw) and torch.equal(run.plain.edges, run.raw.edges)
+    assert not torch.equal(run.plain.pos, run.raw.pos)  # faired
 
 
 def test_our_synthesis_resolves_unbacked_ends_itself(waves):
@@ -102,3 +105,21 @@ def test_our_synthesis_resolves_unbacked_ends_itself(waves):
 
     off = ends(replace(FAST, end_reach=0.0, fragment=0, init_candidates=1))
     assert ends(FAST) < off
+
+
+def test_coastline_strokes_run_on_instead_of_ending():
+    """A coastline crop has no stroke ends inside: unwanted ends grow and join farther
+    (CurveConfig.grow, free_reach); without them more strokes stop inside."""
+    from dataclasses import replace
+
+    cx = load_curves(Path(__file__).resolve().parents[1] / "data" / "real_curves" / "coastline.svg")
+    w, h = cx.exemplar.viewbox[2:]
+
+    def ends(cfg):
+        g = synthesize_curves(cx, (w, h), cfg).graph
+        m = 0.05 * w
+        inner = ((g.pos[:, 0] > m) & (g.pos[:, 0] < w - m) & (g.pos[:, 1] > m)
+                 & (g.pos[:, 1] < h - m) & (g.kind < 0))
+        return int(((g.degree() == 1) & inner).sum())
+
+    assert ends(FAST) < ends(replace(FAST, grow=0.5, free_reach=4.0))

@@ -3,9 +3,9 @@
 The user's strokes are sampled at the exemplar's finest spacing and held fixed (positions,
 edges, never removed, never outliers); the region around them is filled by the curve synthesis
 (two levels by default), whose neighborhoods overlap the user's strokes, so the prediction continues
-them and may join them. Drawn samples farther than two coarse radii from the region cannot
-influence it and are left out. The result is the predicted strokes (the edges not between two of
-the user's samples).
+them and may join them. Drawn samples farther than two neighbourhood radii (of each level) from
+the region cannot influence it and are left out. The result is the predicted strokes (the edges
+not between two of the user's samples).
 """
 
 from __future__ import annotations
@@ -72,16 +72,20 @@ def autocomplete(cx: CurveExemplar, partial: CurveExemplar, box, config: CurveCo
     cfg = config or CurveConfig(levels=2)
     cx, strokes = user_strokes(cx, partial)
     levels = curve_levels(cx, cfg)
-    reach = 2 * levels[0].radius  # farther drawn samples change nothing
-    grown = (box[0] - reach, box[1] - reach, box[2] + reach, box[3] + reach)
+    radius = {lv.delta: lv.radius for lv in levels}
+    done: dict[float, CurveGraph] = {}
 
-    def drawn(delta: float) -> CurveGraph:
-        g = stroke_graph(strokes, cx.styles, delta)
-        return g.select(torch.nonzero(box_inside(grown)(g.pos)).flatten())
+    def drawn(delta: float) -> CurveGraph:  # farther drawn samples change nothing
+        if delta not in done:
+            reach = 2 * radius.get(delta, levels[0].radius)
+            g = stroke_graph(strokes, cx.styles, delta)
+            grown = (box[0] - reach, box[1] - reach, box[2] + reach, box[3] + reach)
+            done[delta] = g.select(torch.nonzero(box_inside(grown)(g.pos)).flatten())
+        return done[delta]
 
     delta = levels[-1].delta
     fixed = len(drawn(delta))
-    res = run_boxed(cx, box, cfg, None, drawn)
+    res = run_boxed(cx, box, cfg, None, drawn, levels=levels)
     g = repair_ends(res.graph, res.inputs[-1], cx.box, box, delta, keep=fixed)
     g = prune(g, res.inputs[-1], cx.box, box, delta, keep=fixed)
     g = fair_like(g, res.inputs[-1], cx.box, box, delta, keep=fixed)  # the user's stay put

@@ -2,12 +2,15 @@
 
 * ``ours``: cvt.curves.synthesis with connectivity (eq. 5 in the search, eqs. 17-22 edges).
 * ``no-connectivity``: the same synthesis of samples without the edge term or edge
-  assignment; after every assignment step each sample is joined to its nearest samples.
+  assignment; after every assignment step each sample is joined to its nearest samples. The
+  issue's baseline is this reconnection as it stands (``CurveRun.plain``: redrawn and faired,
+  no pruning, no end repair toward the exemplar); with the whole ``finish`` it is a stronger
+  one (``CurveRun.final``), reported beside it.
 * ``random``: random exemplar pieces (patches of side 2r with their edges) on a grid, i.e. the
   initialization alone.
 
-All three get the same clean-up (``finish``: cvt.curves.cleanup, cvt.curves.fairing) and
-reconstruction.
+``final`` is every method's output after the same clean-up (``finish``: cvt.curves.cleanup,
+cvt.curves.fairing); ours is what a user gets.
 """
 
 from __future__ import annotations
@@ -30,10 +33,11 @@ METHODS = ("ours", "no-connectivity", "random")
 @dataclass
 class CurveRun:
     """One method's output before the end repair (``raw``: the synthesized graph redrawn at
-    ``delta``, nothing pruned, joined or removed) and after the whole ``finish`` (``final``:
-    what the user gets)."""
+    ``delta``, nothing pruned, joined or removed), the same only faired (``plain``: no pruning,
+    no end repair) and after the whole ``finish`` (``final``: what the user gets)."""
 
     raw: CurveGraph
+    plain: CurveGraph
     final: CurveGraph
     delta: float
 
@@ -65,7 +69,8 @@ def run_staged(method: str, cx: CurveExemplar, size: tuple[float, float], cfg: C
         res = synthesize_curves(cx, size, cfg, inside)
         out, inp, delta = res.graph, res.inputs[-1], res.delta
     raw = upsample(out, delta)
-    return CurveRun(raw, finish(raw, inp, cx.box, box, delta), delta)
+    return CurveRun(raw, fair_like(raw, inp, cx.box, box, delta),
+                    finish(raw, inp, cx.box, box, delta), delta)
 
 
 def finish(raw: CurveGraph, inp: CurveGraph, in_box, out_box, delta: float) -> CurveGraph:

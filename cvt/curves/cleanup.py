@@ -18,7 +18,7 @@ from __future__ import annotations
 import numpy as np
 import torch
 
-from cvt.curves.ends import facing_pairs, outward, run_on
+from cvt.curves.ends import CAP_REACH, capped_ends, facing_pairs, outward, run_on
 from cvt.curves.graph import CurveGraph, components
 
 
@@ -59,23 +59,34 @@ def specks(g: CurveGraph, box, margin: float) -> np.ndarray:
 
 def prune(out: CurveGraph, exemplar: CurveGraph, in_box, out_box, delta: float, keep: int = 0,
           rounds: int = 2) -> CurveGraph:
-    """Remove spurs and specks smaller than the exemplar's; the first ``keep`` samples (a
-    user's strokes) always stay."""
+    """Remove spurs and specks smaller than the exemplar's. Where the exemplar's stroke ends
+    are capped by discrete elements (a circuit's pads), a small piece with every end capped
+    too is a short lead like the exemplar's, not dust: it stays. The first ``keep`` samples
+    (a user's strokes) always stay."""
     ex_spur = min((len(c) for c in spurs(exemplar, in_box, 2 * delta)), default=10**9)
     ex_comp = specks(exemplar, in_box, 1.5 * delta)
     min_comp = int(ex_comp[ex_comp > 0].min()) if (ex_comp > 0).any() else 3
+    pads = bool(capped_ends(exemplar, CAP_REACH * delta).any())
     for _ in range(rounds):
         drop = np.zeros(len(out), dtype=bool)
         for chain in spurs(out, out_box, 2 * delta):
             if len(chain) < ex_spur:
                 drop[chain] = True
         comp = specks(out, out_box, 1.5 * delta)
-        drop |= (comp > 0) & (comp < min_comp)
+        drop |= (comp > 0) & (comp < min_comp) & ~(_all_capped(out, delta) if pads else drop)
         drop[:keep] = False
         if not drop.any():
             break
         out = out.select(torch.from_numpy(np.nonzero(~drop)[0]))
     return out
+
+
+def _all_capped(out: CurveGraph, delta: float) -> np.ndarray:
+    """Samples of components with ends, all of them capped by an element. Shape: (N,) bool."""
+    _, lab = components(len(out), out.edges.numpy())
+    ends = (out.degree().numpy() == 1).astype(float)
+    bare = ends * ~capped_ends(out, CAP_REACH * delta)
+    return ((np.bincount(lab, weights=ends) > 0) & (np.bincount(lab, weights=bare) == 0))[lab]
 
 
 def end_rate(g: CurveGraph, box, margin: float) -> float:

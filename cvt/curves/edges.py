@@ -56,15 +56,17 @@ def edge_votes(m: Matches, out: CurveGraph, inp: CurveGraph, reach: float):
     return torch.stack([uniq // len(out), uniq % len(out)], 1), conf
 
 
-def expected_degree(m: Matches, out: CurveGraph, inp: CurveGraph) -> torch.Tensor:
-    """Eq. 18: mean degree of the input samples each output sample was matched to.
+def expected_degree(m: Matches, out: CurveGraph, inp: CurveGraph,
+                    deg_in: torch.Tensor | None = None) -> torch.Tensor:
+    """Eq. 18: mean degree of the input samples each output sample was matched to
+    (``deg_in`` (N_in,): the input degrees to use, default ``inp.degree()``).
 
     Shape: -> (N,) float; samples never matched keep their current degree.
     """
     outs, ins = occurrences(m)
     ok = (outs >= 0) & (ins >= 0)
     o, i = outs[ok], ins[ok]
-    deg_in = inp.degree().double()
+    deg_in = (inp.degree() if deg_in is None else deg_in).double()
     total = torch.zeros(len(out), dtype=torch.float64).index_add_(0, o, deg_in[i])
     count = torch.bincount(o, minlength=len(out)).double()
     return torch.where(count > 0, total / count.clamp_min(1), out.degree().double())

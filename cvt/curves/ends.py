@@ -3,7 +3,9 @@ the expected degree of eq. 18; sec. 4.4: no dangling stubs the exemplar does not
 
 After the greedy eq. 22 an output sample can be left with degree 1 although the input samples
 its neighborhoods matched sit inside strokes (expected degree >= 1.5): a break the exemplar
-does not have — unless the sample's own neighborhood matched an input end (``end_evidence``).
+does not have — unless the sample's own neighborhood matched an input end (``end_evidence``)
+that looks like it: an input end capped by a discrete element (a circuit's pad) backs only an
+output end with an element near it too.
 Such *unwanted ends* are resolved with local evidence only (no global target):
 
 1. two unwanted ends facing each other within ``reach`` are joined, nearest pairs first (a
@@ -31,6 +33,7 @@ from cvt.curves.graph import CurveGraph, components
 
 WANT_STROKE = 1.5  # expected degree above which a sample lies inside a stroke
 WANT_JUNCTION = 2.5
+CAP_REACH = 1.5  # a discrete element this many deltas from a stroke end caps it (a pad)
 
 
 def outward(pos: np.ndarray, nbr: list[list[int]], ends: np.ndarray) -> np.ndarray:
@@ -90,10 +93,30 @@ def run_on(pos: np.ndarray, nbr: list[list[int]], target: np.ndarray, ends: np.n
     return new
 
 
-def end_evidence(want: np.ndarray, center_degree: np.ndarray) -> np.ndarray:
+def end_evidence(want: np.ndarray, center_degree: np.ndarray,
+                 bare: np.ndarray | None = None) -> np.ndarray:
     """Expected degrees (eq. 18) capped at 1 where the sample's own neighborhood center was
-    matched to an input end. Shape: (N,), (N,) -> (N,)."""
-    return np.where(center_degree == 1, np.minimum(want, 1.0), want)
+    matched to an input end; raised to a stroke's where that input end is capped by a discrete
+    element (a circuit's pad) and the sample has none near it (``bare``, (N,) bool: an end
+    the exemplar does not have there). Shape: (N,), (N,) -> (N,)."""
+    want = np.where(center_degree == 1, np.minimum(want, 1.0), want)
+    if bare is None:
+        return want
+    return np.where(bare, np.maximum(want, WANT_STROKE), want)
+
+
+def near_element(g: CurveGraph, reach: float) -> np.ndarray:
+    """Curve samples with a discrete element closer than ``reach``. Shape: -> (N,) bool."""
+    pos, el = g.pos.numpy(), g.kind.numpy() >= 0
+    out = np.zeros(len(g), dtype=bool)
+    if el.any():
+        out[~el] = cKDTree(pos[el]).query(pos[~el], distance_upper_bound=reach)[0] < reach
+    return out
+
+
+def capped_ends(g: CurveGraph, reach: float) -> np.ndarray:
+    """Curve ends (degree 1) with a discrete element closer than ``reach``. Shape: (N,) bool."""
+    return near_element(g, reach) & (g.degree().numpy() == 1)
 
 
 def unwanted_ends(g: CurveGraph, want: np.ndarray) -> np.ndarray:
@@ -127,10 +150,13 @@ def _reclose(pos, nbr, ends, done: set[int], reach: float, shortest: int
 
 
 def close_breaks(g: CurveGraph, want: np.ndarray, reach: float, facing: float = 0.3,
-                 min_loop: int = 6) -> CurveGraph:
+                 min_loop: int = 6, rim: np.ndarray | None = None) -> CurveGraph:
     """Steps 1 to 3 above. ``want`` (N,): eq. 18 expected degrees. Two ends of one stroke
-    are only joined when ``min_loop`` or more edges apart (no tiny loops)."""
+    are only joined when ``min_loop`` or more edges apart (no tiny loops). Ends on the
+    ``rim`` (N,) bool (the domain border, which cuts strokes) are left as they are."""
     ends = unwanted_ends(g, want)
+    if rim is not None:
+        ends = ends[~rim[ends]]
     if len(ends) == 0:
         return g
     pos, nbr = g.pos.numpy(), g.adjacency()

@@ -33,8 +33,11 @@ def existence(m: Matches, n: int) -> torch.Tensor:
 
 def missing_samples(out: CurveGraph, m: Matches, inp: CurveGraph, in_nbr: torch.Tensor,
                     delta: float, radius: float, inside: Callable[[torch.Tensor], torch.Tensor],
-                    threshold: float = 0.5) -> CurveGraph:
-    """New samples where eq. 16 says one is missing (possibly none)."""
+                    threshold: float = 0.5, grow: torch.Tensor | None = None,
+                    grow_threshold: float = 0.25) -> CurveGraph:
+    """New samples where eq. 16 says one is missing (possibly none). ``grow`` (M, 2): stroke
+    ends the matches do not back (cvt.curves.ends); within 1.5 ``delta`` of one a place needs
+    only ``grow_threshold`` of the votes: the stroke runs on toward where it continues."""
     p, s_i, s_o = missing_votes(out, m, inp, in_nbr, radius)  # (V, 2), (V,), (V,)
     ok = inside(p) if p.shape[0] else torch.zeros(0, dtype=torch.bool)
     p, s_i, s_o = p[ok], s_i[ok], s_o[ok]
@@ -50,7 +53,10 @@ def missing_samples(out: CurveGraph, m: Matches, inp: CurveGraph, in_nbr: torch.
     near = torch.cdist(place, out.pos) if len(out) else torch.full((places, 1), float("inf"))
     overlap = (near <= radius).sum(1).clamp_min(1)
     xi = n_vote / overlap
-    good = torch.nonzero((xi > threshold) & (near.min(1).values >= 0.8 * delta)).flatten()
+    need = torch.full((places,), threshold, dtype=xi.dtype)
+    if grow is not None and len(grow):
+        need[torch.cdist(place, grow).min(1).values < 1.5 * delta] = grow_threshold
+    good = torch.nonzero((xi > need) & (near.min(1).values >= 0.8 * delta)).flatten()
     good = good[torch.argsort(xi[good], descending=True, stable=True)]
     kept = good[_spaced(place[good].tolist(), 0.8 * delta)]
     if kept.numel() == 0:

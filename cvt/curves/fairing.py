@@ -67,7 +67,10 @@ def fair(g: CurveGraph, iterations: int = 3, corner: float = 60.0, keep: int = 0
     return g.with_(pos=pos)
 
 
-STRENGTHS = ((0, MU), (1, MU), (2, MU), (4, MU), (2, 0.0), (4, 0.0), (8, 0.0))  # (its, mu)
+# (iterations, mu, corner degrees); the last two keep every sample turning more than 10
+# degrees: straight runs between sharp corners (a zigzag hatch) straightened, corners kept
+STRENGTHS = ((0, MU, 60.0), (1, MU, 60.0), (2, MU, 60.0), (4, MU, 60.0), (2, 0.0, 60.0),
+             (4, 0.0, 60.0), (8, 0.0, 60.0), (4, MU, 10.0), (1, 0.0, 10.0))
 
 
 def fair_like(out: CurveGraph, exemplar: CurveGraph, in_box, out_box, delta: float,
@@ -75,6 +78,6 @@ def fair_like(out: CurveGraph, exemplar: CurveGraph, in_box, out_box, delta: flo
     """``out`` faired with the strength of ``STRENGTHS`` that best matches the exemplar's
     curvature histogram (both graphs sampled at ``delta``)."""
     ref = curvature_hist(exemplar, in_box, delta)
-    tries = [fair(out, k, keep=keep, mu=mu) for k, mu in STRENGTHS]
+    tries = [fair(out, k, corner, keep=keep, mu=mu) for k, mu, corner in STRENGTHS]
     err = [tv(curvature_hist(g, out_box, delta), ref) for g in tries]
     return tries[min(range(len(tries)), key=err.__getitem__)]

@@ -96,34 +96,42 @@ def _events(strokes: list[Stroke], step: float, snap: float, uf: _Union):
         p = a[i] + ti * (b[i] - a[i])
         events[sid[i]].append((arc[i] + ti * seglen[i], node, p))
         events[sid[j]].append((arc[j] + uj * seglen[j], node, p))
-    tree = cKDTree((a + b) / 2)
-    for k, st in enumerate(strokes):
-        if st.closed:
-            continue
-        for end, s_end in ((st.points[0], 0.0), (st.points[-1], lengths[k])):
-            node = uf.add()
-            events[k].append((s_end, node, end))
-            _snap_end(end, s_end, k, node, tree, a, b, sid, arc, seglen, lengths, snap, step,
-                      events)
+    opened = [k for k, st in enumerate(strokes) if not st.closed]
+    ends = [(k, p, s) for k in opened
+            for p, s in ((strokes[k].points[0], 0.0), (strokes[k].points[-1], lengths[k]))]
+    if not ends:
+        return events, lengths
+    hits = _snap_ends(np.array([p for _, p, _ in ends]), np.array([s for _, _, s in ends]),
+                      np.array([k for k, _, _ in ends]), (a, b, sid, arc, seglen), lengths,
+                      snap, step)
+    for (k, p, s), (i, s_hit, q) in zip(ends, hits, strict=True):
+        node = uf.add()
+        events[k].append((s, node, p))
+        if i >= 0:  # a path end within ``snap`` of another part of the pattern joins it there
+            events[sid[i]].append((s_hit, node, q))
     return events, lengths
 
 
-def _snap_end(end, s_end, k, node, tree, a, b, sid, arc, seglen, lengths, snap, step, events):
-    """A path end within ``snap`` of another part of the pattern joins it there."""
-    near = tree.query_ball_point(end, snap + step)
-    best, best_d = None, snap
-    for i in near:
-        d = b[i] - a[i]
-        t = float(np.clip(np.dot(end - a[i], d) / max(np.dot(d, d), 1e-300), 0, 1))
-        s = arc[i] + t * seglen[i]
-        if sid[i] == k and min(abs(s - s_end), lengths[k] - abs(s - s_end)) < 3 * snap:
-            continue  # its own stroke near this end
-        q = a[i] + t * d
-        dist = float(np.linalg.norm(q - end))
-        if dist < best_d:
-            best, best_d = (sid[i], s, q), dist
-    if best is not None:
-        events[best[0]].append((best[1], node, best[2]))
+def _snap_ends(ends, s_end, owner, segs, lengths, snap: float, step: float):
+    """Where each path end (M, 2) within ``snap`` of another part of the pattern joins it:
+    (segment or -1, arc length there, point) per end, the nearest segment point first."""
+    a, b, sid, arc, seglen = segs
+    near = cKDTree((a + b) / 2).query_ball_point(ends, snap + step)
+    ei = np.repeat(np.arange(len(ends)), [len(n) for n in near])
+    si = np.fromiter((i for n in near for i in n), dtype=int, count=len(ei))
+    d = b[si] - a[si]
+    t = np.clip(((ends[ei] - a[si]) * d).sum(1) / np.maximum((d * d).sum(1), 1e-300), 0, 1)
+    s = arc[si] + t * seglen[si]
+    gap = np.abs(s - s_end[ei])
+    own = (sid[si] == owner[ei]) & (np.minimum(gap, lengths[owner[ei]] - gap) < 3 * snap)
+    q = a[si] + t[:, None] * d
+    dist = np.linalg.norm(q - ends[ei], axis=1)
+    ok = np.flatnonzero(~own & (dist < snap))
+    out = [(-1, 0.0, None)] * len(ends)
+    order = np.lexsort((si[ok], np.round(dist[ok] / snap, 9)))  # ties: the lowest segment
+    for k in ok[order][::-1]:  # the nearest last, so it wins
+        out[ei[k]] = (int(si[k]), float(s[k]), q[k])
+    return out
 
 
 def _len(st: Stroke) -> float:
@@ -169,10 +177,16 @@ class _Builder:
         return pos
 
 
-def _at(points: np.ndarray, closed: bool, s: np.ndarray) -> np.ndarray:
-    """Points at arc lengths ``s`` (wrapped on closed strokes). Shape: (Q,) -> (Q, 2)."""
+def _arc(points: np.ndarray, closed: bool) -> tuple[np.ndarray, np.ndarray]:
+    """The stroke's points (closed: the first repeated) and their arc lengths."""
     p = np.vstack([points, points[:1]]) if closed else points
-    cum = np.r_[0.0, np.cumsum(np.linalg.norm(np.diff(p, axis=0), axis=1))]
+    return p, np.r_[0.0, np.cumsum(np.linalg.norm(np.diff(p, axis=0), axis=1))]
+
+
+def _at(arc: tuple[np.ndarray, np.ndarray], closed: bool, s: np.ndarray) -> np.ndarray:
+    """Points at arc lengths ``s`` (wrapped on closed strokes) of ``arc`` (``_arc``).
+    Shape: (Q,) -> (Q, 2)."""
+    p, cum = arc
     s = np.mod(s, cum[-1]) if closed else s
     return np.stack([np.interp(s, cum, p[:, 0]), np.interp(s, cum, p[:, 1])], 1)
 
@@ -199,6 +213,7 @@ def _pieces(st: Stroke, ev, length: float, delta: float, bld: _Builder) -> None:
     nodes = [bld.junction(n, p, st.style) for _, n, p in ev]
     arcs = [s for s, _, _ in ev]
     spans = [(k, k + 1) for k in range(len(ev) - 1)]
+    along = _arc(st.points, st.closed)
     if st.closed:
         spans.append((len(ev) - 1, 0))
     for i, j in spans:
@@ -207,7 +222,7 @@ def _pieces(st: Stroke, ev, length: float, delta: float, bld: _Builder) -> None:
             continue
         loop = bld.uf.find(ev[i][1]) == bld.uf.find(ev[j][1])
         n = max(int(round((s1 - s0) / delta)), 3 if loop else 1)
-        inner = _at(st.points, st.closed, np.linspace(s0, s1, n + 1)[1:-1])
+        inner = _at(along, st.closed, np.linspace(s0, s1, n + 1)[1:-1])
         chain = [nodes[i]] + [bld.add(q, st.style) for q in inner] + [nodes[j]]
         bld.edges.extend(zip(chain[:-1], chain[1:], strict=True))
 

@@ -24,7 +24,15 @@ import torch
 
 from cvt.assignment import assign_positions
 from cvt.curves.edges import assign_edges, expected_degree
-from cvt.curves.ends import close_breaks, drop_broken, end_evidence
+from cvt.curves.ends import (
+    CAP_REACH,
+    capped_ends,
+    close_breaks,
+    drop_broken,
+    end_evidence,
+    near_element,
+    unwanted_ends,
+)
 from cvt.curves.existence import existence, missing_samples
 from cvt.curves.graph import CurveGraph, nearest_edges
 from cvt.curves.init import box_inside, patch_init
@@ -61,6 +69,11 @@ class CurveConfig:
     reach: float = 2.2  # candidate edges join samples closer than this many deltas
     end_reach: float = 4.0  # unwanted stroke ends join within this many deltas (ends.py)
     fragment: int = 6  # broken-off fragments shorter than this many samples go (ends.py)
+    # exemplars without interior stroke ends (coastlines, rings; fewer than 1 per 100
+    # samples): an output end is a defect, so unwanted ends grow (a new sample next to one
+    # needs only ``grow`` of the eq. 16 votes; 0.5: off) and join within ``free_reach`` deltas
+    grow: float = 0.1
+    free_reach: float = 8.0
     init_candidates: int = 16  # patches tried per init cell (init.py)
     detail_turn: float = 1.0  # finer spacings for strokes turning faster (spacing.py; 0: off)
     max_halvings: int = 2
@@ -95,6 +108,15 @@ class _Level:
     inside: Inside
     n_fixed: int
     fixed_edges: torch.Tensor
+    capped: np.ndarray  # (N_in,) bool: input ends with a discrete element at them
+    deg_in: torch.Tensor  # (N_in,) input degrees, ends cut by the exemplar's canvas as 2
+
+    @property
+    def end_free(self) -> bool:
+        """The exemplar has (almost) no stroke ends inside its canvas: fewer than 1 per 100
+        curve samples (the end statistic's floor, cvt.curves.stats)."""
+        curve = self.inp.kind < 0
+        return int(((self.deg_in == 1) & curve).sum()) < 0.01 * int(curve.sum())
 
 
 def synthesize_curves(cx: CurveExemplar, size: tuple[float, float],
@@ -114,14 +136,16 @@ def synthesize_curves(cx: CurveExemplar, size: tuple[float, float],
 
 
 def run_boxed(cx: CurveExemplar, out_box, cfg: CurveConfig, inside: Inside | None,
-              fixed: Callable[[float], CurveGraph] | None, on_iteration=None) -> CurveResult:
+              fixed: Callable[[float], CurveGraph] | None, on_iteration=None,
+              levels: list[Level] | None = None) -> CurveResult:
     """The synthesis into ``out_box`` (x0, y0, x1, y1), around the graph ``fixed(delta)``
-    (sampled at each level's spacing; its styles index ``cx.styles``)."""
+    (sampled at each level's spacing; its styles index ``cx.styles``); ``levels``: the
+    caller's ``curve_levels(cx, cfg)`` if it has them."""
     t0 = time.perf_counter()
     gen = torch.Generator().manual_seed(cfg.seed)
     size = (out_box[2] - out_box[0], out_box[3] - out_box[1])
     domain = box_inside(out_box, inside)
-    levels = curve_levels(cx, cfg)
+    levels = levels or curve_levels(cx, cfg)
     res = CurveResult(CurveGraph.empty(cx.styles), size, levels[-1].delta)
     res.inputs = [exemplar_graph(cx, lv.delta) for lv in levels]
     out = patch_init(res.inputs[0], cx.box, out_box, 2 * levels[0].radius, domain, gen,
@@ -143,7 +167,18 @@ def _level_state(lv, inp, cx, cfg, domain, fixed) -> _Level:
     index = _input_index(inp, cx.box, lv, cfg)
     n_fixed = 0 if fixed is None else len(fixed)
     keep = torch.zeros(0, 2, dtype=torch.long) if fixed is None else fixed.edges
-    return _Level(lv, inp, edge_embedding(inp), index, domain, n_fixed, keep)
+    return _Level(lv, inp, edge_embedding(inp), index, domain, n_fixed, keep,
+                  capped_ends(inp, CAP_REACH * lv.delta), run_on_degree(inp, cx.box, lv.delta))
+
+
+def run_on_degree(inp: CurveGraph, box, delta: float) -> torch.Tensor:
+    """Input degrees with the stroke ends the exemplar's canvas cut (within 2 ``delta`` of
+    ``box``, where the statistics do not count them either) as 2: the stroke runs on there,
+    so they back no output end. Shape: -> (N_in,) long."""
+    deg = inp.degree().clone()
+    cut = torch.from_numpy(_rim(inp.pos, box_inside(box), 2 * delta)) & (deg == 1)
+    deg[cut & (inp.kind < 0)] = 2
+    return deg
 
 
 def _drop_near(out: CurveGraph, fixed: CurveGraph, delta: float) -> CurveGraph:
@@ -169,7 +204,8 @@ def _run_level(li: int, s: _Level, out: CurveGraph, cfg: CurveConfig, gen, res: 
         field_ = m.center
         res.energies.append((li, it, m.energy))
         if it + 1 < cfg.iterations:
-            out, field_ = _existence(out, m, s, field_)
+            grow = out.pos[unwanted_ends(out, want)] if s.end_free else None
+            out, field_ = _existence(out, m, s, field_, grow, cfg.grow)
         else:  # the domain constraint also holds after the last move
             if cfg.connectivity:
                 out = drop_broken(out, want, cfg.fragment, keep=s.n_fixed,
@@ -208,13 +244,19 @@ def _assign(out: CurveGraph, m, s: _Level, cfg: CurveConfig):
     pos = assign_positions(out.pos, m, s.inp.pos, huber=cfg.huber * s.lv.delta)
     pos[: s.n_fixed] = out.pos[: s.n_fixed]
     out = out.with_(pos=pos, style=_voted_style(out, m, s))
-    want = end_evidence(expected_degree(m, out, s.inp).numpy(),
-                        s.inp.degree().numpy()[m.center.numpy()])
+    center = m.center.numpy()
+    bare = s.capped[center] & ~near_element(out, CAP_REACH * s.lv.delta) if s.capped.any() \
+        else None
+    want = end_evidence(expected_degree(m, out, s.inp, s.deg_in).numpy(),
+                        s.deg_in.numpy()[center], bare)
     if not cfg.connectivity:  # the no-connectivity baseline: samples joined to their nearest
         return out.with_(edges=nearest_edges(out, 1.6 * s.lv.delta)), want
     out = out.with_(edges=assign_edges(m, out, s.inp, cfg.reach * s.lv.delta,
                                        keep=s.fixed_edges))
-    return close_breaks(out, want, cfg.end_reach * s.lv.delta), want
+    if not s.end_free:
+        return close_breaks(out, want, cfg.end_reach * s.lv.delta), want
+    rim = _rim(out.pos, s.inside, 2 * s.lv.delta)  # the farther joins stay off the border
+    return close_breaks(out, want, cfg.free_reach * s.lv.delta, rim=rim), want
 
 
 def _voted_style(out: CurveGraph, m, s: _Level) -> torch.Tensor:
@@ -224,9 +266,11 @@ def _voted_style(out: CurveGraph, m, s: _Level) -> torch.Tensor:
     return torch.where(out.kind < 0, style, out.style)
 
 
-def _existence(out: CurveGraph, m, s: _Level, field_):
-    """Remove samples with eq. 16 below 1/2 or outside the domain; add missing ones."""
-    new = missing_samples(out, m, s.inp, s.index[0], s.lv.delta, s.lv.radius, s.inside)
+def _existence(out: CurveGraph, m, s: _Level, field_, grow=None, grow_threshold: float = 0.5):
+    """Remove samples with eq. 16 below 1/2 or outside the domain; add missing ones (with
+    ``grow_threshold`` of the votes near the unwanted stroke ends ``grow`` (M, 2))."""
+    new = missing_samples(out, m, s.inp, s.index[0], s.lv.delta, s.lv.radius, s.inside,
+                          grow=grow, grow_threshold=grow_threshold)
     keep = (existence(m, len(out)) >= 0.5) & s.inside(out.pos)
     keep[: s.n_fixed] = True
     idx = torch.nonzero(keep).flatten()
