@@ -34,6 +34,7 @@ from neuraltex.texton_elements import SIZE_RATIO, ElementShapes, element_shapes,
 MARGIN = 2.0    # ground pixels around a footprint that move with its element
 FEATHER = 0.7   # std (px) of the blend at a footprint's edge
 ROUND = 1.5     # elongation below which an element is round (scaled, never turned)
+FIT = 0.8       # least share of each footprint that the other covers, mapped onto it
 
 
 def place_map(src: np.ndarray, dst: np.ndarray, round_: bool) -> np.ndarray:
@@ -88,20 +89,66 @@ def source_grid(shapes: ElementShapes, target: np.ndarray,
     return grid, moved
 
 
+def fitting_permutation(shapes: ElementShapes, where: np.ndarray, seed: int | None,
+                        size_ratio: float = SIZE_RATIO, fit: float = FIT) -> np.ndarray:
+    """(E,) int64: the place each element takes: the random permutation within each shape
+    class that a texton reshuffle by elements draws for ``seed``
+    (:func:`neuraltex.texton_elements.permutation`), but a cycle of it in which some element
+    does not fit the place it takes — less than ``fit`` overlap, mapped onto it
+    (:func:`overlap`): two bricks of one area but other proportions, or a brick and a pair of
+    short ones, would break the mortar lines around them — stays where it was. where (H, W):
+    element of each pixel."""
+    target = permutation(shapes, seed, size_ratio)
+    order = np.argsort(where.ravel(), kind="stable")  # pixels grouped by element
+    starts = np.searchsorted(where.ravel()[order], np.arange(len(target) + 1))
+    pixels = [np.stack(np.divmod(order[a:b], where.shape[1])[::-1], 1)   # (n, 2) x, y
+              for a, b in zip(starts[:-1], starts[1:], strict=True)]
+    seen = target == np.arange(len(target))
+    for start in np.nonzero(~seen)[0]:
+        if seen[start]:
+            continue
+        cycle, e = [], start
+        while not seen[e]:
+            seen[e] = True
+            cycle.append(e)
+            e = target[e]
+        if any(overlap(shapes, where, pixels, a, target[a]) < fit for a in cycle):
+            target[cycle] = cycle
+    return target
+
+
+def overlap(shapes: ElementShapes, where: np.ndarray, pixels: list[np.ndarray], e: int,
+            p: int) -> float:
+    """How well element e fits the place of element p: the smaller of the share of p's
+    pixels that e covers, mapped onto p (:func:`place_map`), and the share of e's pixels
+    that land on p's. where (H, W): element of each pixel; pixels: (n, 2) x, y of each
+    element's pixels."""
+    round_ = max(shapes.elongation[e], shapes.elongation[p]) < ROUND
+    A = place_map(shapes.cov[e], shapes.cov[p], round_)
+    shares = []
+    for a, b, M in ((p, e, np.linalg.inv(A)), (e, p, A)):
+        q = shapes.centre[b] + (pixels[a] - shapes.centre[a]) @ M.T
+        qx, qy = np.rint(q[:, 0]).astype(np.int64), np.rint(q[:, 1]).astype(np.int64)
+        inside = (qx >= 0) & (qx < where.shape[1]) & (qy >= 0) & (qy < where.shape[0])
+        hit = np.zeros(len(qx), bool)
+        hit[inside] = where[qy[inside], qx[inside]] == b
+        shares.append(hit.mean() if len(hit) else 0.0)
+    return float(min(shares))
+
+
 def swap_elements(image: Tensor, labels: np.ndarray, groups: np.ndarray, *,
                   seed: int | None = None, size_ratio: float = SIZE_RATIO,
                   margin: float = MARGIN, feather: float = FEATHER) -> Tensor:
-    """Elements trade places within their shape classes (:func:`permutation`, the same one a
-    texton reshuffle by elements uses for a seed) in ``image`` (3, H, W), the reconstruction
-    of a texture file; labels (h, w) texton of each pixel at the fit's size (resampled to
-    the image's), groups (K,) element of each texton. -> (3, H, W). Deterministic per seed."""
+    """Elements trade places within their shape classes (:func:`fitting_permutation`) in
+    ``image`` (3, H, W), the reconstruction of a texture file; labels (h, w) texton of each
+    pixel at the fit's size (resampled to the image's), groups (K,) element of each texton.
+    -> (3, H, W). Deterministic per seed."""
     H, W = image.shape[-2:]
     if labels.shape != (H, W):
         lab = torch.from_numpy(np.ascontiguousarray(labels)).float()[None, None]
         labels = F.interpolate(lab, size=(H, W), mode="nearest")[0, 0].long().numpy()
-    shapes = element_shapes(labels, groups)
-    target = permutation(shapes, seed, size_ratio)
-    place = footprints(groups[labels], shapes.background, margin)
+    shapes, where, target = _plan(labels, groups, seed, size_ratio)
+    place = footprints(where, shapes.background, margin)
     grid, moved = source_grid(shapes, target, place)
     if not moved.any():
         return image.clone()
@@ -115,11 +162,17 @@ def swap_elements(image: Tensor, labels: np.ndarray, groups: np.ndarray, *,
 
 def moved_count(labels: np.ndarray, groups: np.ndarray, seed: int | None,
                 size_ratio: float = SIZE_RATIO) -> tuple[int, int]:
-    """(elements that :func:`swap_elements` moves for ``seed``, elements that are not
-    background)."""
-    shapes = element_shapes(labels, groups)
-    target = permutation(shapes, seed, size_ratio)
+    """(elements that :func:`swap_elements` moves for ``seed`` at the fit's size, elements
+    that are not background)."""
+    shapes, _, target = _plan(labels, groups, seed, size_ratio)
     return int((target != np.arange(len(target))).sum()), int((~shapes.background).sum())
+
+
+def _plan(labels: np.ndarray, groups: np.ndarray, seed: int | None, size_ratio: float):
+    """(element shapes, (H, W) element of each pixel, the place each element takes)."""
+    shapes = element_shapes(labels, groups)
+    where = groups[labels]
+    return shapes, where, fitting_permutation(shapes, where, seed, size_ratio)
 
 
 def _blur(mask: Tensor, sigma: float) -> Tensor:

@@ -105,3 +105,32 @@ def test_a_background_mass_is_parted_by_the_finer_segments_and_a_backdrop_is_not
     assert len(set(_finer_in_background(groups, labels, backdrop))) == 1
     eighths = np.arange(8).repeat(8).reshape(1, 64).repeat(64, 0)  # nothing background-sized
     assert np.array_equal(_finer_in_background(np.arange(8), eighths, fine), np.arange(8))
+
+
+def test_an_element_that_does_not_fit_a_place_keeps_its_own():
+    """Two squares and two crosses of one area (81 and 80 px, both round: one shape class):
+    a square never takes a cross's place (they overlap by about 0.7 mapped onto each other),
+    while squares trade places with squares and crosses with crosses for some seeds."""
+    from neuraltex.element_swap import fitting_permutation, overlap
+    from neuraltex.texton_elements import element_shapes, permutation
+
+    where = np.zeros((H, W), np.int64)
+    for i, (cy, cx) in enumerate(CENTRES):
+        if i % 2 == 0:
+            where[cy - 4:cy + 5, cx - 4:cx + 5] = i + 1                     # 9 x 9 square
+        else:
+            where[cy - 6:cy + 6, cx - 2:cx + 2] = i + 1                     # 12 x 4 bar ...
+            where[cy - 2:cy + 2, cx - 6:cx + 6] = i + 1                     # ... crossed
+    shapes = element_shapes(where, np.arange(5))
+    order = np.argsort(where.ravel(), kind="stable")
+    starts = np.searchsorted(where.ravel()[order], np.arange(6))
+    pixels = [np.stack(np.divmod(order[a:b], W)[::-1], 1) for a, b in zip(starts, starts[1:])]
+    assert overlap(shapes, where, pixels, 1, 2) < 0.8 < overlap(shapes, where, pixels, 1, 3)
+    mixed = same = 0
+    for seed in range(20):
+        plain = permutation(shapes, seed, 1.1)
+        target = fitting_permutation(shapes, where, seed, 1.1)
+        assert all(target[e] % 2 == e % 2 for e in range(1, 5))  # squares stay squares
+        mixed += any(plain[e] % 2 != e % 2 for e in range(1, 5))
+        same += any(target[e] != e for e in range(1, 5))
+    assert mixed and same  # the plain permutation mixes them; the fitting one still moves
