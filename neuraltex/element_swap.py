@@ -99,10 +99,7 @@ def fitting_permutation(shapes: ElementShapes, where: np.ndarray, seed: int | No
     short ones, would break the mortar lines around them — stays where it was. where (H, W):
     element of each pixel."""
     target = permutation(shapes, seed, size_ratio)
-    order = np.argsort(where.ravel(), kind="stable")  # pixels grouped by element
-    starts = np.searchsorted(where.ravel()[order], np.arange(len(target) + 1))
-    pixels = [np.stack(np.divmod(order[a:b], where.shape[1])[::-1], 1)   # (n, 2) x, y
-              for a, b in zip(starts[:-1], starts[1:], strict=True)]
+    pixels = element_pixels(where, len(target))
     seen = target == np.arange(len(target))
     for start in np.nonzero(~seen)[0]:
         if seen[start]:
@@ -115,6 +112,14 @@ def fitting_permutation(shapes: ElementShapes, where: np.ndarray, seed: int | No
         if any(overlap(shapes, where, pixels, a, target[a]) < fit for a in cycle):
             target[cycle] = cycle
     return target
+
+
+def element_pixels(where: np.ndarray, count: int) -> list[np.ndarray]:
+    """(n_e, 2) x, y of the pixels of each of ``count`` elements in ``where`` (H, W)."""
+    order = np.argsort(where.ravel(), kind="stable")  # pixels grouped by element
+    starts = np.searchsorted(where.ravel()[order], np.arange(count + 1))
+    return [np.stack(np.divmod(order[a:b], where.shape[1])[::-1], 1)
+            for a, b in zip(starts[:-1], starts[1:], strict=True)]
 
 
 def overlap(shapes: ElementShapes, where: np.ndarray, pixels: list[np.ndarray], e: int,

@@ -111,7 +111,7 @@ def test_an_element_that_does_not_fit_a_place_keeps_its_own():
     """Two squares and two crosses of one area (81 and 80 px, both round: one shape class):
     a square never takes a cross's place (they overlap by about 0.7 mapped onto each other),
     while squares trade places with squares and crosses with crosses for some seeds."""
-    from neuraltex.element_swap import fitting_permutation, overlap
+    from neuraltex.element_swap import element_pixels, fitting_permutation, overlap
     from neuraltex.texton_elements import element_shapes, permutation
 
     where = np.zeros((H, W), np.int64)
@@ -122,9 +122,8 @@ def test_an_element_that_does_not_fit_a_place_keeps_its_own():
             where[cy - 6:cy + 6, cx - 2:cx + 2] = i + 1                     # 12 x 4 bar ...
             where[cy - 2:cy + 2, cx - 6:cx + 6] = i + 1                     # ... crossed
     shapes = element_shapes(where, np.arange(5))
-    order = np.argsort(where.ravel(), kind="stable")
-    starts = np.searchsorted(where.ravel()[order], np.arange(6))
-    pixels = [np.stack(np.divmod(order[a:b], W)[::-1], 1) for a, b in zip(starts, starts[1:])]
+    pixels = element_pixels(where, 5)
+    assert len(pixels[1]) == 81 and len(pixels[2]) == 80
     assert overlap(shapes, where, pixels, 1, 2) < 0.8 < overlap(shapes, where, pixels, 1, 3)
     mixed = same = 0
     for seed in range(20):
