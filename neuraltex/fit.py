@@ -47,12 +47,18 @@ from neuraltex.tuned_decoder import ColourOffsetGenerator
 SEGMENTERS = ("auto", *METHODS)
 SWAPPED_LAYOUTS = 2    # layouts with elements traded that the detail sprites also fit ...
 SWAPPED_WEIGHT = 0.1   # ... each weighted this much against the texture itself
+# the work after the tuning (elements, sprites) takes about this many times the work before
+# it (segments, first estimate), on a quiet machine as on a busy one (measured: 3-5 s after
+# 2-3 s quiet; 15-37 s after at load 4)
+AFTER_TUNING = 2.0
 
 
 @dataclass
 class FitSettings:
     segmenter: str = "auto"
-    seconds: float | None = 45.0  # wall-time budget of the tuning loop (None: steps only)
+    seconds: float | None = 55.0  # wall-time budget of the whole fit: segments, tuning,
+    #                               elements, sprites (the tuning gets what the rest leaves,
+    #                               tuning_budget); None: steps only
     steps: int | None = None      # step budget (reproducible for a seed); None: seconds only
     crop: int = 64                # side of the random training crops, pixels
     lr: float = 2e-3              # G
@@ -201,8 +207,8 @@ def fit_texture(model, image: Tensor, settings: FitSettings | None = None,
                 on_eval: Callable[[int, float, float], None] | None = None) -> TextureFit:
     """Tune G and the textons' features to an image (3, H, W) in [0, 1]; returns the fit.
 
-    Stops after ``settings.steps`` steps or ``settings.seconds`` of tuning, whichever comes
-    first. The segmentation and the first estimate are not counted in ``seconds``.
+    Stops tuning after ``settings.steps`` steps or when the whole fit would run over
+    ``settings.seconds`` (:func:`tuning_budget`), whichever comes first.
     ``on_eval(step, seconds, psnr)`` is called at every full-image PSNR reading (step 0 and
     every ``eval_every`` steps), e.g. to record the climb.
     """
@@ -211,6 +217,7 @@ def fit_texture(model, image: Tensor, settings: FitSettings | None = None,
     cfg = settings or FitSettings()
     if cfg.steps is None and cfg.seconds is None:
         raise ValueError("fit needs a step or a time budget")
+    begin = time.perf_counter()
     method, textons, labels = choose_segments(model, image, cfg.segmenter, cfg.max_textons,
                                               cfg.ground)
     H, W = image.shape[-2:]
@@ -232,11 +239,12 @@ def fit_texture(model, image: Tensor, settings: FitSettings | None = None,
 
     progress = tqdm(total=cfg.steps, desc="fit", unit="step", leave=False,
                     disable=None if bar is None else not bar)
+    budget = tuning_budget(cfg.seconds, time.perf_counter() - begin)
     start, step = time.perf_counter(), 0
     base = score = _full_psnr(model, G, image, current())
     if on_eval:
         on_eval(0, 0.0, score)
-    while not _done(cfg, step, time.perf_counter() - start):
+    while not _done(cfg.steps, budget, step, time.perf_counter() - start):
         loss = _crop_loss(model, G, image, current(), cfg, rng)
         opt.zero_grad(set_to_none=True)
         loss.backward()
@@ -289,9 +297,19 @@ def fit_detail(model, G: nn.Module, image: Tensor, textons: Textons, side: int,
     return attach(textons, sprites.detach())
 
 
-def _done(cfg: FitSettings, step: int, elapsed: float) -> bool:
-    return ((cfg.steps is not None and step >= cfg.steps)
-            or (cfg.seconds is not None and elapsed >= cfg.seconds))
+def tuning_budget(seconds: float | None, before: float) -> float | None:
+    """Seconds of tuning within a whole-fit budget of ``seconds``, ``before`` of them spent
+    on the segments and the first estimate: what is left once the work after the tuning
+    (AFTER_TUNING times ``before``) is set aside; None without a budget. At least one step
+    is always taken."""
+    if seconds is None:
+        return None
+    return max(seconds - before * (1 + AFTER_TUNING), 0.0)
+
+
+def _done(steps: int | None, seconds: float | None, step: int, elapsed: float) -> bool:
+    return step >= 1 and ((steps is not None and step >= steps)
+                          or (seconds is not None and elapsed >= seconds))
 
 
 def segment_means(x: Tensor, labels: np.ndarray) -> Tensor:

@@ -198,7 +198,8 @@ def summary(rows: list[tuple[str, dict]]) -> list[str]:
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--seconds", type=float, default=45.0, help="fit budget per image (45)")
+    ap.add_argument("--seconds", type=float, default=55.0,
+                    help="whole-fit budget per image (55, the CLI default)")
     ap.add_argument("--steps", type=int, help="fit step budget instead (reproducible)")
     ap.add_argument("--segmenter", default="auto", help="fit --segmenter (default auto)")
     ap.add_argument("--detail", type=int,

@@ -1,6 +1,6 @@
 """Editing gallery on real textures with texture files, for the README.
 
-    python scripts/real_gallery.py                       # 4 real textures, 45 s fit each
+    python scripts/real_gallery.py                       # 4 real textures, 55 s fit each
     python scripts/real_gallery.py --seconds 10 --out /tmp/g
 
 Each texture of data/real_textures is tuned (``neuraltex fit``), then one row shows:
@@ -41,7 +41,8 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("names", nargs="*", default=["brick", "coins", "leopard", "stone_wall"],
                     help="real textures (file stems in data/real_textures)")
-    ap.add_argument("--seconds", type=float, default=45.0, help="fit budget per texture (45)")
+    ap.add_argument("--seconds", type=float, default=55.0,
+                    help="whole-fit budget per texture (55, the CLI default)")
     ap.add_argument("--steps", type=int, help="fit step budget instead (reproducible)")
     ap.add_argument("--out", type=Path, default=DOCS, help="output folder (default docs/)")
     args = ap.parse_args()

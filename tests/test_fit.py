@@ -185,6 +185,24 @@ def test_fit_stops_at_its_time_budget(model):
     assert fit.seconds < 5 and fit.steps >= 1
 
 
+def test_the_budget_covers_the_whole_fit_and_the_tuning_gets_what_is_left():
+    from neuraltex.fit import AFTER_TUNING, tuning_budget
+
+    assert tuning_budget(55.0, 2.0) == pytest.approx(55.0 - 2.0 * (1 + AFTER_TUNING))
+    assert tuning_budget(5.0, 4.0) == 0.0  # nothing left: one step, then elements and sprites
+    assert tuning_budget(None, 4.0) is None
+
+
+def test_a_fit_with_a_budget_ends_near_it(model):
+    import time
+
+    begin = time.perf_counter()
+    fit = fit_texture(model, discs(32), FitSettings(seconds=3.0, segmenter="felzenszwalb",
+                                                    crop=32))
+    total = time.perf_counter() - begin
+    assert fit.steps > 1 and total < 3.0 + 2.0  # tuning stopped early enough for the rest
+
+
 def test_detail_sprites_add_what_the_decoder_misses(model, fitted):
     from neuraltex.texton_detail import auto_side
 

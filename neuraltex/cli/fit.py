@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import argparse
 import hashlib
+import time
 from pathlib import Path
 
 from neuraltex.cli import args as types
@@ -42,7 +43,9 @@ def cmd_fit(args: argparse.Namespace) -> int:
     seconds = DEFAULT_SECONDS if args.seconds is None and args.steps is None else args.seconds
     settings = FitSettings(segmenter=args.segmenter, seconds=seconds, steps=args.steps,
                            max_textons=args.max_textons, detail=args.detail, seed=args.seed or 0)
+    begin = time.perf_counter()
     fit = fit_texture(model, image, settings)
+    total = time.perf_counter() - begin
     source = {"file": args.image.name, "width": w, "height": h,
               "sha256": hashlib.sha256(args.image.read_bytes()).hexdigest()}
     header = {"source": source, "size": list(image.shape[-2:]), "segmenter": fit.segmenter,
@@ -55,7 +58,7 @@ def cmd_fit(args: argparse.Namespace) -> int:
           f"{fit.steps} steps in {fit.seconds:.1f} s: PSNR {fit.base_psnr:.2f} -> "
           f"{fit.plain_psnr:.2f} dB" + (f"; {fit.detail} px detail sprites "
                                         f"({fit.detail_seconds:.1f} s) -> {fit.psnr:.2f} dB"
-                                        if fit.detail else ""))
+                                        if fit.detail else "") + f"; {total:.1f} s in all")
     print(f"wrote {args.output} ({size / 1024:.0f} KB)")
     if args.preview:
         from neuraltex.tuned_decoder import tuned_model
@@ -66,7 +69,7 @@ def cmd_fit(args: argparse.Namespace) -> int:
     return 0
 
 
-DEFAULT_SECONDS = 45.0
+DEFAULT_SECONDS = 55.0
 
 
 def _detail_side(text: str) -> int | None:
@@ -106,8 +109,10 @@ def add_commands(sub) -> None:
     p.add_argument("-o", "--output", type=Path, required=True,
                    help="texture file to write (.ntex)")
     p.add_argument("--seconds", type=float,
-                   help=f"tuning time budget in seconds (default {DEFAULT_SECONDS:g} unless "
-                   "--steps is given; segmentation comes on top)")
+                   help=f"time budget of the whole fit in seconds: segments, tuning, elements "
+                   f"and sprites; the tuning gets what the rest leaves (default "
+                   f"{DEFAULT_SECONDS:g} unless --steps is given; loading the model comes on "
+                   "top)")
     p.add_argument("--steps", type=int,
                    help="tuning step budget; alone (without --seconds) the run is reproducible "
                    "for a --seed")
