@@ -127,6 +127,36 @@ def seam_ratio(images: list[np.ndarray]) -> tuple[float, float]:
     return seam, inner
 
 
+def line_values(image: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`line_swd` of every vertical and every horizontal line of a tile. Shape: (H, W, 3)
+    -> (W,), (H,)."""
+    maps = _projected(image)
+    return (line_swd(maps, 1, np.arange(image.shape[1])),
+            line_swd(maps, 0, np.arange(image.shape[0])))
+
+
+def rolled_ratios(images: list[np.ndarray], rolls: int = 200, seed: int = 0) -> np.ndarray:
+    """The :func:`seam_ratio` of the same tiles rolled by random offsets (one offset pair per
+    tile and draw, in steps of the coarsest octave's tap spacing, so that the patches along a
+    line fall on the same grid as in a rolled image): a seamless tile rolled is as seamless,
+    and its seam is then a line of the tile's interior, so these ratios are what the
+    estimator reads on these tiles where there is no seam by construction (its null
+    distribution). Tiles with near-periods are not supported (their controls depend on the
+    seam's phase). Shape: each
+    (H, W, 3) -> (rolls,)."""
+    rng = np.random.default_rng(seed)
+    seam, inner = np.zeros(rolls), np.zeros(rolls)
+    for image in images:
+        for values in line_values(image):
+            n = len(values)
+            ctrl = np.arange(MARGIN, n - MARGIN + 1, STEP)
+            step = 2 ** (OCTAVES - 1)
+            r = step * rng.integers(0, n // step, rolls)  # (rolls,) the seam line of each draw
+            seam += values[r] / 2
+            inner += values[(r[:, None] + ctrl[None]) % n].mean(1) / 2
+    return seam / inner
+
+
 def seam_step(image: np.ndarray, near: int = 8) -> tuple[float, float]:
     """Mean colour step between the pixel rows (columns) on either side of the seams of the
     image tiled 2 x 2, and the same between neighbouring rows (columns) within ``near`` pixels
