@@ -127,12 +127,14 @@ def seam_ratio(images: list[np.ndarray]) -> tuple[float, float]:
     return seam, inner
 
 
-def line_values(image: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """:func:`line_swd` of every vertical and every horizontal line of a tile. Shape: (H, W, 3)
-    -> (W,), (H,)."""
+def line_values(image: np.ndarray, every: int = 1) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`line_swd` of every ``every``-th vertical and horizontal line of a tile (64 lines
+    at a time). Shape: (H, W, 3) -> (W / every,), (H / every,)."""
     maps = _projected(image)
-    return (line_swd(maps, 1, np.arange(image.shape[1])),
-            line_swd(maps, 0, np.arange(image.shape[0])))
+    return tuple(np.concatenate([line_swd(maps, axis, lines[k : k + 64])
+                                 for k in range(0, len(lines), 64)])
+                 for axis, lines in ((1, np.arange(0, image.shape[1], every)),
+                                     (0, np.arange(0, image.shape[0], every))))
 
 
 def rolled_ratios(images: list[np.ndarray], rolls: int = 200, seed: int = 0) -> np.ndarray:
@@ -146,14 +148,13 @@ def rolled_ratios(images: list[np.ndarray], rolls: int = 200, seed: int = 0) -> 
     (H, W, 3) -> (rolls,)."""
     rng = np.random.default_rng(seed)
     seam, inner = np.zeros(rolls), np.zeros(rolls)
+    step = 2 ** (OCTAVES - 1)  # divides STEP: controls of a rolled seam are lines k * step
     for image in images:
-        for values in line_values(image):
-            n = len(values)
-            ctrl = np.arange(MARGIN, n - MARGIN + 1, STEP)
-            step = 2 ** (OCTAVES - 1)
-            r = step * rng.integers(0, n // step, rolls)  # (rolls,) the seam line of each draw
+        for values, n in zip(line_values(image, step), image.shape[1::-1], strict=True):
+            ctrl = np.arange(MARGIN, n - MARGIN + 1, STEP) // step  # (L,) in steps
+            r = rng.integers(0, n // step, rolls)  # (rolls,) the seam line of each draw
             seam += values[r] / 2
-            inner += values[(r[:, None] + ctrl[None]) % n].mean(1) / 2
+            inner += values[(r[:, None] + ctrl[None]) % (n // step)].mean(1) / 2
     return seam / inner
 
 

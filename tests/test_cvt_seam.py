@@ -69,7 +69,7 @@ def test_rolled_ratios_are_the_seam_ratio_of_rolled_tiles():
         seam, inner = seam_ratio(rolled)
         want.append(seam / inner)
     assert np.allclose(rolled_ratios(tiles, rolls=3, seed=5), want, rtol=1e-4)
-    assert len(line_values(tiles[0])[0]) == 128
+    assert len(line_values(tiles[0])[0]) == 128 and len(line_values(tiles[0], 4)[1]) == 32
 
 
 def test_a_synthetic_seam_lies_above_the_rolled_tiles():
