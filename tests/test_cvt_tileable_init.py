@@ -89,3 +89,29 @@ def test_gaussian_init_on_a_torus_keeps_one_period():
     pos = out.pos.numpy()
     assert (pos > lo - 5).all() and (pos < lo + [255.0, 175.0]).all()
     assert (pos > [250.0, 170.0]).any(0).all() or lo.min() < 1  # copies past the far edge kept
+
+
+def test_a_missing_element_voted_from_both_sides_of_the_seam_is_one_cluster():
+    """Two output samples (clusters 0 and 1) on either side of the seam, matched to one input
+    sample, both vote for the same missing input element (cluster 7): on a torus the new
+    samples share one fresh cluster; without the torus the translations differ by a period."""
+    from cvt.assignment import _new_cluster_ids
+    from cvt.search import Matches
+
+    n_in = 8
+    inp = Samples(torch.tensor([[50.0, 40.0]] * n_in, dtype=torch.float64),
+                  torch.arange(n_in), torch.zeros(n_in, dtype=torch.long),
+                  torch.ones(n_in, dtype=torch.float64),
+                  torch.zeros(n_in, 60, dtype=torch.float64), torch.arange(n_in),
+                  torch.arange(n_in))
+    out = Samples(torch.tensor([[249.0, 60.0], [-1.0 + 0.5, 60.0]], dtype=torch.float64),
+                  torch.tensor([0, 1]), torch.zeros(2, dtype=torch.long),
+                  torch.ones(2, dtype=torch.float64), torch.zeros(2, 60, dtype=torch.float64),
+                  torch.tensor([0, 1]), torch.tensor([0, 1]))
+    m = Matches(torch.tensor([0, 0]), torch.full((2, 1), -1), torch.full((2, 1), -1),
+                torch.zeros(2))
+    s_i, s_o = torch.tensor([7, 7]), torch.tensor([0, 1])
+    on = _new_cluster_ids(out, m, inp, s_i, s_o, 20.0, Torus.of(OUT_BOX))
+    off = _new_cluster_ids(out, m, inp, s_i, s_o, 20.0)
+    assert on[0] == on[1] and int(on[0]) > 1  # one fresh cluster
+    assert off[0] != off[1]
