@@ -151,7 +151,7 @@ def add_missing(out: Samples, m: Matches, inp: Samples, in_nbr: torch.Tensor, de
     first_vote = torch.full((len(uniq),), -1, dtype=torch.long)
     first_vote.scatter_reduce_(0, inv, torch.arange(len(inv)), reduce="amin", include_self=False)
     v = first_vote[torch.tensor(chosen)]  # (A,) one representative vote per new sample
-    cluster = _new_cluster_ids(out, m, inp, s_i[v], s_o[v], 2 * delta)
+    cluster = _new_cluster_ids(out, m, inp, s_i[v], s_o[v], 2 * delta, torus)
     # A fresh cluster must bring at least ``min_new`` of its input element's samples at once:
     # stray one- or two-sample clusters would each rebuild a whole element (no clustering
     # step yet to merge them). ``min_new`` >= 1 disables fresh clusters.
@@ -186,10 +186,14 @@ def _spaced(points: list[list[float]], gap: float) -> list[int]:
     return kept
 
 
-def _new_cluster_ids(out: Samples, m: Matches, inp: Samples, s_i, s_o, cell: float):
+def _new_cluster_ids(out: Samples, m: Matches, inp: Samples, s_i, s_o, cell: float,
+                     torus: Torus | None = None):
     """Cluster of each new sample: join the output cluster its neighborhood mapped to the same
     input cluster, else a fresh id shared by the new samples of the same input cluster placed
-    with (about) the same translation, i.e. the same missing element. Shape: (A,) -> (A,)."""
+    with (about) the same translation, i.e. the same missing element; on a ``torus``
+    translations are equal modulo the periods (voters on either side of the seam place one
+    element; split, its halves each missed ``min_new`` and the seam kept a gap). Shape: (A,)
+    -> (A,)."""
     want = inp.cluster[s_i]  # (A,)
     mt = m.matched[s_o]  # (A, K)
     mc = torch.where(mt >= 0, inp.cluster[mt.clamp_min(0)], -1)  # (A, K)
@@ -202,6 +206,8 @@ def _new_cluster_ids(out: Samples, m: Matches, inp: Samples, s_i, s_o, cell: flo
     joined = torch.where(center_same, out.cluster[s_o], joined)
     has = has | center_same
     shift = out.pos[s_o] - inp.pos[m.center[s_o]]  # (A, 2) where the input pattern sits
+    if torus is not None:
+        shift = torus.wrap(shift)
     key = torch.cat([want[:, None], torch.round(shift / cell).long()], 1)  # (A, 3)
     _, group = torch.unique(key, dim=0, return_inverse=True)
     fresh = int(out.cluster.max()) + 1 + group

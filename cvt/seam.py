@@ -127,6 +127,37 @@ def seam_ratio(images: list[np.ndarray]) -> tuple[float, float]:
     return seam, inner
 
 
+def line_values(image: np.ndarray, every: int = 1) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`line_swd` of every ``every``-th vertical and horizontal line of a tile (64 lines
+    at a time). Shape: (H, W, 3) -> (W / every,), (H / every,)."""
+    maps = _projected(image)
+    return tuple(np.concatenate([line_swd(maps, axis, lines[k : k + 64])
+                                 for k in range(0, len(lines), 64)])
+                 for axis, lines in ((1, np.arange(0, image.shape[1], every)),
+                                     (0, np.arange(0, image.shape[0], every))))
+
+
+def rolled_ratios(images: list[np.ndarray], rolls: int = 200, seed: int = 0) -> np.ndarray:
+    """The :func:`seam_ratio` of the same tiles rolled by random offsets (one offset pair per
+    tile and draw, in steps of the coarsest octave's tap spacing, so that the patches along a
+    line fall on the same grid as in a rolled image): a seamless tile rolled is as seamless,
+    and its seam is then a line of the tile's interior, so these ratios are what the
+    estimator reads on these tiles where there is no seam by construction (its null
+    distribution). Tiles with near-periods are not supported (their controls depend on the
+    seam's phase). Shape: each
+    (H, W, 3) -> (rolls,)."""
+    rng = np.random.default_rng(seed)
+    seam, inner = np.zeros(rolls), np.zeros(rolls)
+    step = 2 ** (OCTAVES - 1)  # divides STEP: controls of a rolled seam are lines k * step
+    for image in images:
+        for values, n in zip(line_values(image, step), image.shape[1::-1], strict=True):
+            ctrl = np.arange(MARGIN, n - MARGIN + 1, STEP) // step  # (L,) in steps
+            r = rng.integers(0, n // step, rolls)  # (rolls,) the seam line of each draw
+            seam += values[r] / 2
+            inner += values[(r[:, None] + ctrl[None]) % (n // step)].mean(1) / 2
+    return seam / inner
+
+
 def seam_step(image: np.ndarray, near: int = 8) -> tuple[float, float]:
     """Mean colour step between the pixel rows (columns) on either side of the seams of the
     image tiled 2 x 2, and the same between neighbouring rows (columns) within ``near`` pixels

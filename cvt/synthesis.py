@@ -143,15 +143,15 @@ def _synthesize(exemplar: Exemplar, size, cfg: SynthesisConfig, on_iteration) ->
     t = time.perf_counter()
     res.inputs = [sample_exemplar(exemplar, lv.delta, seed=cfg.seed + k)
                   for k, lv in enumerate(levels)]
+    torus = Torus.of(out_box) if cfg.tileable else None
     if cfg.init == "random":
         out = random_init(res.inputs[0], in_box, out_box, gen)
     elif cfg.init == "gaussian":
-        out = gaussian_init(res.inputs[0], in_box, out_box, 2 * levels[0].radius, gen)
+        out = gaussian_init(res.inputs[0], in_box, out_box, 2 * levels[0].radius, gen, torus)
     else:
-        out = patch_init(res.inputs[0], in_box, out_box, 2 * levels[0].radius, gen)
+        out = patch_init(res.inputs[0], in_box, out_box, 2 * levels[0].radius, gen, torus)
     _tick(res, 0, "init", t)
 
-    torus = Torus.of(out_box) if cfg.tileable else None
     for li, lv in enumerate(levels):
         inp = res.inputs[li]
         out, m, votes = _run_level(li, lv, inp, out, in_box, out_box, cfg, gen, res,

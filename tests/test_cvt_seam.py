@@ -52,3 +52,32 @@ def test_a_synthetic_seam_reads_well_above_a_seamless_tile():
     seam_cut, inner_cut = seam_ratio(cut)
     assert seam / inner < 1.25
     assert seam_cut / inner_cut > 1.5 * seam / inner and seam_cut / inner_cut > 1.5
+
+
+def test_rolled_ratios_are_the_seam_ratio_of_rolled_tiles():
+    """Each draw of rolled_ratios is seam_ratio of the tiles rolled by its offsets: the
+    estimator's reading where there is no seam (a seamless tile rolled is seamless)."""
+    from cvt.seam import line_values, rolled_ratios
+
+    tiles = [_discs(40, 128, seed=s) for s in range(2)]
+    rng = np.random.default_rng(5)  # rolled_ratios' draws, reproduced
+    offs = [[4 * rng.integers(0, 32, 3) for _ in range(2)] for _ in tiles]  # tile, axis: (3,)
+    want = []
+    for k in range(3):
+        rolled = [np.roll(t, (-int(o[1][k]), -int(o[0][k])), (0, 1)) for t, o in
+                  zip(tiles, offs, strict=True)]
+        seam, inner = seam_ratio(rolled)
+        want.append(seam / inner)
+    assert np.allclose(rolled_ratios(tiles, rolls=3, seed=5), want, rtol=1e-4)
+    assert len(line_values(tiles[0])[0]) == 128 and len(line_values(tiles[0], 4)[1]) == 32
+
+
+def test_a_synthetic_seam_lies_above_the_rolled_tiles():
+    from cvt.seam import rolled_ratios
+
+    tiles = [_discs(60, 192, seed=s)[:150, :150] for s in range(3)]  # a cut when tiled
+    seam, inner = seam_ratio(tiles)
+    null = rolled_ratios(tiles, rolls=100)
+    assert seam / inner > np.quantile(null, 0.95)
+    seamless = rolled_ratios([_discs(60, 192, seed=s) for s in range(3)], rolls=100)
+    assert 0.6 < np.median(seamless) < 1.2
