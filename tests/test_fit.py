@@ -176,7 +176,7 @@ def test_fit_reports_its_climb_at_every_reading(model, fitted):
     assert [c[0] for c in curve] == [0, 10, 20, 30, 40]
     assert curve[0][2] == pytest.approx(fit.base_psnr) and curve[-1][2] == pytest.approx(
         fit.plain_psnr, abs=1e-4)
-    assert all(b[1] >= a[1] for a, b in zip(curve, curve[1:]))  # seconds grow
+    assert all(b[1] >= a[1] for a, b in zip(curve, curve[1:], strict=False))  # seconds grow
     assert curve[-1][2] == pytest.approx(fitted.plain_psnr, abs=1e-4)  # no effect on the fit
 
 
