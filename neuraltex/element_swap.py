@@ -148,29 +148,32 @@ def swap_elements(image: Tensor, labels: np.ndarray, groups: np.ndarray, *,
     ``image`` (3, H, W), the reconstruction of a texture file; labels (h, w) texton of each
     pixel at the fit's size (resampled to the image's), groups (K,) element of each texton.
     -> (3, H, W). Deterministic per seed."""
+    return swap_and_count(image, labels, groups, seed=seed, size_ratio=size_ratio,
+                          margin=margin, feather=feather)[0]
+
+
+def swap_and_count(image: Tensor, labels: np.ndarray, groups: np.ndarray, *,
+                   seed: int | None = None, size_ratio: float = SIZE_RATIO,
+                   margin: float = MARGIN, feather: float = FEATHER
+                   ) -> tuple[Tensor, int, int]:
+    """:func:`swap_elements`, and how many elements moved of those that are not
+    background: -> (picture (3, H, W), moved, elements)."""
     H, W = image.shape[-2:]
     if labels.shape != (H, W):
         lab = torch.from_numpy(np.ascontiguousarray(labels)).float()[None, None]
         labels = F.interpolate(lab, size=(H, W), mode="nearest")[0, 0].long().numpy()
     shapes, where, target = _plan(labels, groups, seed, size_ratio)
+    counts = int((target != np.arange(len(target))).sum()), int((~shapes.background).sum())
     place = footprints(where, shapes.background, margin)
     grid, moved = source_grid(shapes, target, place)
     if not moved.any():
-        return image.clone()
+        return image.clone(), *counts
     grid = torch.from_numpy(grid).to(image)
     norm = torch.stack([(grid[..., 0] + 0.5) / W, (grid[..., 1] + 0.5) / H], -1) * 2 - 1
     out = F.grid_sample(image[None], norm[None], mode="bicubic", padding_mode="border",
                         align_corners=False)[0].clamp(0, 1)
     alpha = _blur(torch.from_numpy(moved).to(image), feather)
-    return alpha * out + (1 - alpha) * image
-
-
-def moved_count(labels: np.ndarray, groups: np.ndarray, seed: int | None,
-                size_ratio: float = SIZE_RATIO) -> tuple[int, int]:
-    """(elements that :func:`swap_elements` moves for ``seed`` at the fit's size, elements
-    that are not background)."""
-    shapes, _, target = _plan(labels, groups, seed, size_ratio)
-    return int((target != np.arange(len(target))).sum()), int((~shapes.background).sum())
+    return alpha * out + (1 - alpha) * image, *counts
 
 
 def _plan(labels: np.ndarray, groups: np.ndarray, seed: int | None, size_ratio: float):

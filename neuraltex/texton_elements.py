@@ -31,6 +31,7 @@ between cracks) stay.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -76,14 +77,15 @@ def group_textons(image: Tensor, labels: np.ndarray, textons: Textons | None = N
     i, j = _hugging(groups[labels])
     graph = coo_matrix((np.ones(len(i)), (i, j)), shape=(groups.max() + 1,) * 2)
     groups = connected_components(graph, directed=False)[1][groups].astype(np.int64)
-    fine = felzenszwalb_labels(arr, MAX_SEGMENTS, coarser=FINER)
-    return _finer_in_background(groups, labels, fine)
+    return _finer_in_background(groups, labels,
+                                lambda: felzenszwalb_labels(arr, MAX_SEGMENTS, coarser=FINER))
 
 
-def _finer_in_background(groups: np.ndarray, labels: np.ndarray, fine: np.ndarray
-                         ) -> np.ndarray:
+def _finer_in_background(groups: np.ndarray, labels: np.ndarray,
+                         segments: Callable[[], np.ndarray]) -> np.ndarray:
     """Elements (K,) of textons (labels (H, W)) where each element of at least
-    BACKGROUND_SHARE of the image is parted by the ``fine`` segments (H, W) inside it (every
+    BACKGROUND_SHARE of the image is parted by the finer ``segments()`` (H, W; only computed
+    when there is such an element) inside it (every
     texton joining the one holding most of its pixels): at the coarse scale the stones of
     gravel or of a wall merge into one mass that would stay put as background, at the fit's
     own scale they are stones; a true backdrop (the ground under coins, the mortar of
@@ -93,6 +95,7 @@ def _finer_in_background(groups: np.ndarray, labels: np.ndarray, fine: np.ndarra
     big = area >= BACKGROUND_SHARE * labels.size
     if not big.any():
         return groups
+    fine = segments()
     joint = np.zeros((K, int(fine.max()) + 1), np.int64)
     np.add.at(joint, (labels.ravel(), fine.ravel()), 1)
     key = np.where(big[groups], groups.max() + 1 + joint.argmax(1), groups)

@@ -41,7 +41,7 @@ import torch.nn.functional as F
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from cvt.metrics import patch_swd  # noqa: E402
-from neuraltex.element_swap import moved_count, swap_elements  # noqa: E402
+from neuraltex.element_swap import swap_and_count  # noqa: E402
 from neuraltex.fit import FitSettings, fit_texture, psnr  # noqa: E402
 from neuraltex.imageio import load_image  # noqa: E402
 from neuraltex.model import DEFAULT_MODEL, build_model, load_model  # noqa: E402
@@ -91,12 +91,6 @@ def random_placement(textons, seed: int = 0):
     return replace(textons, mu=mu)
 
 
-def moved_share(tex) -> float:
-    """Share of a texture file's elements (not counting the background) that seed 1 moves."""
-    moved, total = moved_count(tex.labels, tex.elements, 1)
-    return moved / max(total, 1)
-
-
 def evaluate(model, image: torch.Tensor, settings: FitSettings, workdir: Path) -> dict:
     row = {}
     refs = references(image)
@@ -115,8 +109,8 @@ def evaluate(model, image: torch.Tensor, settings: FitSettings, workdir: Path) -
     with torch.no_grad():
         rec = decoder.decode(tex.textons, size)[0]
         start = time.perf_counter()
-        shuf = swap_elements(decoder.decode(tex.textons, size)[0], tex.labels, tex.elements,
-                             seed=1)
+        shuf, moved, total = swap_and_count(decoder.decode(tex.textons, size)[0], tex.labels,
+                                            tex.elements, seed=1)
         row["edit_s"] = time.perf_counter() - start
         shuffled = reshuffle_elements(tex.textons, tex.labels, tex.elements, channels=plain,
                                       seed=1)
@@ -126,7 +120,7 @@ def evaluate(model, image: torch.Tensor, settings: FitSettings, workdir: Path) -
         rand = decoder.decode(random_placement(tex.textons), size)[0]
     row.update(fit=psnr(rec, image), plain=fit.plain_psnr, ssim_fit=ssim(rec, image),
                swd_rec=swd(image, rec), swd_shuf=swd(image, shuf), swd_shuf_d=swd(image, shuf_d),
-               swd_shuf_t=swd(image, shuf_t), moved=moved_share(tex),
+               swd_shuf_t=swd(image, shuf_t), moved=moved / max(total, 1),
                swd_rand=swd(image, rand), seconds=fit.seconds + fit.detail_seconds,
                steps=fit.steps, textons=fit.textons.num_textons, segmenter=fit.segmenter,
                change=(shuf - rec).abs().mean().item())

@@ -99,12 +99,12 @@ def test_a_background_mass_is_parted_by_the_finer_segments_and_a_backdrop_is_not
     labels = np.arange(4).repeat(16).reshape(1, 64).repeat(64, 0)  # 4 textons: columns
     groups = np.zeros(4, np.int64)                                  # one mass of everything
     fine = (np.arange(64) >= 32).astype(np.int64)[None].repeat(64, 0)  # two halves
-    parted = _finer_in_background(groups, labels, fine)
+    parted = _finer_in_background(groups, labels, lambda: fine)
     assert parted[0] == parted[1] != parted[2] == parted[3]
     backdrop = np.zeros((64, 64), np.int64)                         # one fine segment
-    assert len(set(_finer_in_background(groups, labels, backdrop))) == 1
+    assert len(set(_finer_in_background(groups, labels, lambda: backdrop))) == 1
     eighths = np.arange(8).repeat(8).reshape(1, 64).repeat(64, 0)  # nothing background-sized
-    assert np.array_equal(_finer_in_background(np.arange(8), eighths, fine), np.arange(8))
+    assert np.array_equal(_finer_in_background(np.arange(8), eighths, lambda: fine), np.arange(8))
 
 
 def test_an_element_that_does_not_fit_a_place_keeps_its_own():

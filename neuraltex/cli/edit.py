@@ -111,7 +111,7 @@ def cmd_reshuffle(args: argparse.Namespace) -> int:
     its own, and the result is decoded (--by textons)."""
     import random
 
-    from neuraltex.element_swap import moved_count, swap_elements
+    from neuraltex.element_swap import swap_and_count
     from neuraltex.imageio import numbered
     from neuraltex.reshuffle import reshuffle
     from neuraltex.texton_elements import SIZE_RATIO
@@ -133,8 +133,8 @@ def cmd_reshuffle(args: argparse.Namespace) -> int:
         if by_elements:
             ratio = args.size_ratio or SIZE_RATIO
             seed = random.randrange(2**31) if seed is None else seed  # one draw for both
-            out = swap_elements(rec, tex.labels, tex.elements, seed=seed, size_ratio=ratio)
-            moved, total = moved_count(tex.labels, tex.elements, seed, ratio)
+            out, moved, total = swap_and_count(rec, tex.labels, tex.elements, seed=seed,
+                                               size_ratio=ratio)
             print(f"{path}: {moved} of {total} elements trade places (the others have no "
                   f"partner of their shape within --size-ratio {ratio:g}; the background "
                   "stays)")
