@@ -18,6 +18,12 @@ takes a ``margin`` of the ground around it, so what arrives brings its own edge 
 ground next to it, and p's old edge is covered; there are no holes to fill, as every place
 is filled by exactly one element. The background (grout, a backdrop) and elements that keep
 their place stay as R draws them.
+
+Which elements trade (:func:`compatible`, :func:`fitting_permutation`): alike in size, cut
+by the same canvas sides, outlines that cover each other well once carried over
+(:mod:`neuraltex.element_outline`), and on a ground of the same colour (a photograph's light
+falls unevenly: a coin from a dark corner brings its dark margin); among those, a random
+assignment that moves every element that has a partner.
 """
 
 from __future__ import annotations
@@ -29,12 +35,25 @@ import torch
 import torch.nn.functional as F
 from torch import Tensor
 
-from neuraltex.texton_elements import SIZE_RATIO, ElementShapes, element_shapes, permutation
+from neuraltex.element_outline import (
+    Outlines,
+    cover,
+    outlines,
+    shift_pixels,
+    stretch,
+)
+from neuraltex.texton_elements import SIZE_RATIO, ElementShapes, element_shapes
 
 MARGIN = 2.0    # ground pixels around a footprint that move with its element
 FEATHER = 0.7   # std (px) of the blend at a footprint's edge
 ROUND = 1.5     # elongation below which an element is round (scaled, never turned)
-FIT = 0.8       # least share of each footprint that the other covers, mapped onto it
+FIT = 0.8       # least share of each outline's area that the other covers, mapped onto it
+STRETCH = 1.4   # largest stretch of an outline onto the place it takes, in any direction
+SHIFT = 6.0     # ... and largest miss, pixels
+ELONGATION = 1.3  # largest ratio of the elongations of two elements that trade places
+TURN = 30.0     # largest turn (degrees) of an elongated element onto its place
+GROUND = 0.08   # largest difference (RGB, per channel) of two elements' grounds
+RING_PIXELS = 8  # fewest margin pixels that make a ground
 
 
 def place_map(src: np.ndarray, dst: np.ndarray, round_: bool) -> np.ndarray:
@@ -89,56 +108,63 @@ def source_grid(shapes: ElementShapes, target: np.ndarray,
     return grid, moved
 
 
-def fitting_permutation(shapes: ElementShapes, where: np.ndarray, seed: int | None,
-                        size_ratio: float = SIZE_RATIO, fit: float = FIT) -> np.ndarray:
-    """(E,) int64: the place each element takes: the random permutation within each shape
-    class that a texton reshuffle by elements draws for ``seed``
-    (:func:`neuraltex.texton_elements.permutation`), but a cycle of it in which some element
-    does not fit the place it takes — less than ``fit`` overlap, mapped onto it
-    (:func:`overlap`): two bricks of one area but other proportions, or a brick and a pair of
-    short ones, would break the mortar lines around them — stays where it was. where (H, W):
-    element of each pixel."""
-    target = permutation(shapes, seed, size_ratio)
-    pixels = element_pixels(where, len(target))
-    seen = target == np.arange(len(target))
-    for start in np.nonzero(~seen)[0]:
-        if seen[start]:
-            continue
-        cycle, e = [], start
-        while not seen[e]:
-            seen[e] = True
-            cycle.append(e)
-            e = target[e]
-        if any(overlap(shapes, where, pixels, a, target[a]) < fit for a in cycle):
-            target[cycle] = cycle
-    return target
+def compatible(shapes: ElementShapes, outline: Outlines, size_ratio: float = SIZE_RATIO,
+               max_stretch: float = STRETCH, ground: np.ndarray | None = None) -> np.ndarray:
+    """(E, E) bool: element e may take the place of element p (e != p, neither background):
+    cut by the same canvas sides, areas within ``size_ratio``, elongations within
+    ELONGATION, long axes within TURN (when either is elongated), carried onto p by the
+    moment map an outline within ``max_stretch`` of p's in every direction and within SHIFT
+    pixels of it (a large element's outline misses by many pixels where a small one's
+    misses by one: the leaves of a tiled pattern, the strips of bark), covering FIT of p's
+    area and of its own (:func:`neuraltex.element_outline.cover`: a brick and a half never
+    takes a brick's place), and with
+    ``ground`` (E, 3; :func:`ground_colours`) both with a ground of colours within GROUND
+    of each other, or both without (a coin from the photograph's dark corner would arrive
+    with its dark margin on a lighter ground)."""
+    E = len(shapes.area)
+    area = np.maximum(shapes.area, 1)
+    ok = ((shapes.sides[:, None] == shapes.sides[None])
+          & (np.maximum(area[:, None] / area[None], area[None] / area[:, None]) <= size_ratio)
+          & (np.abs(np.log(shapes.elongation[:, None] / shapes.elongation[None]))
+             <= math.log(ELONGATION))
+          & ~shapes.background[:, None] & ~shapes.background[None] & ~np.eye(E, dtype=bool))
+    round_ = np.maximum(shapes.elongation[:, None], shapes.elongation[None]) < ROUND
+    turn = np.abs(shapes.angle[:, None] - shapes.angle[None]) % math.pi
+    ok &= round_ | (np.minimum(turn, math.pi - turn) <= math.radians(TURN))
+    if ground is not None:
+        has = ~np.isnan(ground[:, 0])
+        dist = np.nan_to_num(np.abs(ground[:, None] - ground[None]).max(-1), nan=np.inf)
+        ok &= (has[:, None] == has[None]) & (~has[:, None] | (dist <= GROUND))
+    e, p = np.nonzero(ok)
+    s = stretch(outline, e, p, round_[e, p])  # (n, BINS)
+    shift = shift_pixels(outline, s, p, round_[e, p])  # (n,)
+    ok[e, p] = ((np.maximum(s, 1 / s).max(1) <= max_stretch) & (cover(s) >= FIT)
+                & (shift <= SHIFT))
+    return ok
 
 
-def element_pixels(where: np.ndarray, count: int) -> list[np.ndarray]:
-    """(n_e, 2) x, y of the pixels of each of ``count`` elements in ``where`` (H, W)."""
-    order = np.argsort(where.ravel(), kind="stable")  # pixels grouped by element
-    starts = np.searchsorted(where.ravel()[order], np.arange(count + 1))
-    return [np.stack(np.divmod(order[a:b], where.shape[1])[::-1], 1)
-            for a, b in zip(starts[:-1], starts[1:], strict=True)]
+def fitting_permutation(shapes: ElementShapes, place: np.ndarray, seed: int | None,
+                        size_ratio: float = SIZE_RATIO, max_stretch: float = STRETCH,
+                        outline: Outlines | None = None, ground: np.ndarray | None = None
+                        ) -> np.ndarray:
+    """(E,) int64: the place each element takes — a random permutation in which every
+    element that has a :func:`compatible` partner is moved if it can be: the assignment of
+    least total cost, uniform random costs on compatible pairs and a cost above any of them
+    for staying. place (H, W): element whose footprint each pixel is (:func:`footprints`).
+    Deterministic per seed."""
+    from scipy.optimize import linear_sum_assignment
 
-
-def overlap(shapes: ElementShapes, where: np.ndarray, pixels: list[np.ndarray], e: int,
-            p: int) -> float:
-    """How well element e fits the place of element p: the smaller of the share of p's
-    pixels that e covers, mapped onto p (:func:`place_map`), and the share of e's pixels
-    that land on p's. where (H, W): element of each pixel; pixels: (n, 2) x, y of each
-    element's pixels."""
-    round_ = max(shapes.elongation[e], shapes.elongation[p]) < ROUND
-    A = place_map(shapes.cov[e], shapes.cov[p], round_)
-    shares = []
-    for a, b, M in ((p, e, np.linalg.inv(A)), (e, p, A)):
-        q = shapes.centre[b] + (pixels[a] - shapes.centre[a]) @ M.T
-        qx, qy = np.rint(q[:, 0]).astype(np.int64), np.rint(q[:, 1]).astype(np.int64)
-        inside = (qx >= 0) & (qx < where.shape[1]) & (qy >= 0) & (qy < where.shape[0])
-        hit = np.zeros(len(qx), bool)
-        hit[inside] = where[qy[inside], qx[inside]] == b
-        shares.append(hit.mean() if len(hit) else 0.0)
-    return float(min(shares))
+    if outline is None:
+        outline = outlines(place, shapes.centre, shapes.cov)
+    ok = compatible(shapes, outline, size_ratio, max_stretch, ground)
+    rng = np.random.default_rng(seed)
+    cost = np.where(ok, rng.random(ok.shape), np.inf)
+    np.fill_diagonal(cost, 2.0)
+    if np.isinf(cost).all(1).any():  # never: the diagonal is finite
+        raise AssertionError("no assignment")
+    cost[np.isinf(cost)] = 1e6
+    _, target = linear_sum_assignment(cost)
+    return target.astype(np.int64)
 
 
 def swap_elements(image: Tensor, labels: np.ndarray, groups: np.ndarray, *,
@@ -162,9 +188,8 @@ def swap_and_count(image: Tensor, labels: np.ndarray, groups: np.ndarray, *,
     if labels.shape != (H, W):
         lab = torch.from_numpy(np.ascontiguousarray(labels)).float()[None, None]
         labels = F.interpolate(lab, size=(H, W), mode="nearest")[0, 0].long().numpy()
-    shapes, where, target = _plan(labels, groups, seed, size_ratio)
+    shapes, place, outline, target = plan(image, labels, groups, seed, size_ratio, margin)
     counts = int((target != np.arange(len(target))).sum()), int((~shapes.background).sum())
-    place = footprints(where, shapes.background, margin)
     grid, moved = source_grid(shapes, target, place)
     if not moved.any():
         return image.clone(), *counts
@@ -176,11 +201,36 @@ def swap_and_count(image: Tensor, labels: np.ndarray, groups: np.ndarray, *,
     return alpha * out + (1 - alpha) * image, *counts
 
 
-def _plan(labels: np.ndarray, groups: np.ndarray, seed: int | None, size_ratio: float):
-    """(element shapes, (H, W) element of each pixel, the place each element takes)."""
+def ground_colours(image: Tensor, place: np.ndarray, where: np.ndarray,
+                   background: np.ndarray) -> np.ndarray:
+    """(E, 3) median colour of the ground in each element's footprint (its margin: the
+    background pixels of its place), NaN for an element without one (stones of a wall touch
+    each other). image (3, H, W); place, where (H, W)."""
+    E = len(background)
+    out = np.full((E, 3), np.nan)
+    ring = background[where] & (place >= 0)
+    if not ring.any():
+        return out
+    who = place[ring]
+    rgb = image.detach().cpu().numpy()[:, ring].T  # (n, 3)
+    order = np.argsort(who, kind="stable")
+    starts = np.searchsorted(who[order], np.arange(E + 1))
+    for k in np.nonzero(np.diff(starts) >= RING_PIXELS)[0]:
+        out[k] = np.median(rgb[order[starts[k]:starts[k + 1]]], 0)
+    return out
+
+
+def plan(image: Tensor, labels: np.ndarray, groups: np.ndarray, seed: int | None,
+         size_ratio: float = SIZE_RATIO, margin: float = MARGIN):
+    """(element shapes, (H, W) footprints, their outlines, the place each element takes)
+    for a picture (3, H, W), its labels (H, W) and groups (K,)."""
     shapes = element_shapes(labels, groups)
     where = groups[labels]
-    return shapes, where, fitting_permutation(shapes, where, seed, size_ratio)
+    place = footprints(where, shapes.background, margin)
+    outline = outlines(place, shapes.centre, shapes.cov)
+    ground = ground_colours(image, place, where, shapes.background)
+    return shapes, place, outline, fitting_permutation(shapes, place, seed, size_ratio,
+                                                       outline=outline, ground=ground)
 
 
 def _blur(mask: Tensor, sigma: float) -> Tensor:

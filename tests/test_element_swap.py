@@ -108,11 +108,12 @@ def test_a_background_mass_is_parted_by_the_finer_segments_and_a_backdrop_is_not
 
 
 def test_an_element_that_does_not_fit_a_place_keeps_its_own():
-    """Two squares and two crosses of one area (81 and 80 px, both round: one shape class):
-    a square never takes a cross's place (they overlap by about 0.7 mapped onto each other),
-    while squares trade places with squares and crosses with crosses for some seeds."""
-    from neuraltex.element_swap import element_pixels, fitting_permutation, overlap
-    from neuraltex.texton_elements import element_shapes, permutation
+    """Two squares and two crosses of one area (81 and 80 px, both round): a square never
+    takes a cross's place (carried onto it, its outline would have to stretch about 2x along
+    the diagonals), while squares trade places with squares and crosses with crosses."""
+    from neuraltex.element_outline import outlines
+    from neuraltex.element_swap import compatible, fitting_permutation
+    from neuraltex.texton_elements import element_shapes
 
     where = np.zeros((H, W), np.int64)
     for i, (cy, cx) in enumerate(CENTRES):
@@ -122,14 +123,56 @@ def test_an_element_that_does_not_fit_a_place_keeps_its_own():
             where[cy - 6:cy + 6, cx - 2:cx + 2] = i + 1                     # 12 x 4 bar ...
             where[cy - 2:cy + 2, cx - 6:cx + 6] = i + 1                     # ... crossed
     shapes = element_shapes(where, np.arange(5))
-    pixels = element_pixels(where, 5)
-    assert len(pixels[1]) == 81 and len(pixels[2]) == 80
-    assert overlap(shapes, where, pixels, 1, 2) < 0.8 < overlap(shapes, where, pixels, 1, 3)
-    mixed = same = 0
-    for seed in range(20):
-        plain = permutation(shapes, seed, 1.1)
-        target = fitting_permutation(shapes, where, seed, 1.1)
-        assert all(target[e] % 2 == e % 2 for e in range(1, 5))  # squares stay squares
-        mixed += any(plain[e] % 2 != e % 2 for e in range(1, 5))
-        same += any(target[e] != e for e in range(1, 5))
-    assert mixed and same  # the plain permutation mixes them; the fitting one still moves
+    place = np.where(where > 0, where, -1)
+    ok = compatible(shapes, outlines(place, shapes.centre, shapes.cov), 1.1)
+    assert ok[1, 3] and ok[3, 1] and ok[2, 4] and ok[4, 2]       # like with like
+    assert not ok[1, 2] and not ok[2, 1] and not ok[:, 0].any()   # squares / crosses / ground
+    for seed in range(6):
+        target = fitting_permutation(shapes, place, seed, 1.1)
+        # every element that has a partner moves: 1 <-> 3, 2 <-> 4
+        assert list(target) == [0, 3, 4, 1, 2]
+
+
+def test_a_large_element_must_fit_its_place_to_the_pixel_and_a_small_one_in_ratio():
+    """A disc and a square of its area — one ratio of outlines at every size, the square's
+    corners reaching about 25 % beyond the disc — fit each other's places when small (the
+    outlines miss by a pixel or two) but not when large (by about 10 px at a half side of
+    40: a swap would tear the pattern around them)."""
+    from neuraltex.element_outline import outlines
+    from neuraltex.element_swap import compatible
+    from neuraltex.texton_elements import element_shapes
+
+    def pair(half):
+        size = int(3 * half + 8)
+        yy, xx = np.mgrid[0:size, 0:2 * size].astype(float)
+        where = np.zeros((size, 2 * size), np.int64)
+        c = size / 2
+        square = (np.abs(xx - c - size) <= half) & (np.abs(yy - c) <= half)
+        where[square] = 2
+        where[(xx - c) ** 2 + (yy - c) ** 2 <= square.sum() / np.pi] = 1
+        shapes = element_shapes(where, np.arange(3))
+        place = np.where(where > 0, where, -1)
+        return compatible(shapes, outlines(place, shapes.centre, shapes.cov), 1.1)[1, 2]
+
+    assert pair(5) and not pair(40)
+
+
+def test_elements_trade_only_with_elements_on_a_ground_like_their_own():
+    """Four equal grey discs, two on a dark ground and two on a light one: discs trade
+    places with the disc on their own ground only (moved across, each would bring its dark
+    or light margin)."""
+    from neuraltex.element_swap import swap_and_count
+
+    image, labels, groups = discs()
+    image[:, :, :] = 0.6
+    image[:, :32] = 0.2                                           # top half dark
+    for cy, cx in CENTRES:
+        image[:, cy - 3:cy + 4, cx - 3:cx + 4] = 0.9
+    marked = image.clone()
+    for i, (cy, cx) in enumerate(CENTRES):
+        marked[0, cy, cx] = 0.1 * (i + 1)                         # tell the discs apart
+    out, moved, total = swap_and_count(marked, labels, groups, seed=0)
+    assert (moved, total) == (4, 4)
+    for i, (cy, cx) in enumerate(CENTRES):
+        came = round(float(out[0, cy, cx]) / 0.1) - 1
+        assert came != i and CENTRES[came][0] == cy               # same row: same ground

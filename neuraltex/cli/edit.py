@@ -136,8 +136,8 @@ def cmd_reshuffle(args: argparse.Namespace) -> int:
             out, moved, total = swap_and_count(rec, tex.labels, tex.elements, seed=seed,
                                                size_ratio=ratio)
             print(f"{path}: {moved} of {total} elements trade places (the others have no "
-                  f"partner of their shape within --size-ratio {ratio:g}; the background "
-                  "stays)")
+                  f"partner of their outline, of their size within --size-ratio {ratio:g} "
+                  "and on a ground like theirs; the background stays)")
         else:
             out = _decode(args, decoder, reshuffle(textons, seed=seed, kinds=kinds), tex.short)
         common.save(out, path)
