@@ -197,7 +197,7 @@ def swap_and_count(image: Tensor, labels: np.ndarray, groups: np.ndarray, *,
     norm = torch.stack([(grid[..., 0] + 0.5) / W, (grid[..., 1] + 0.5) / H], -1) * 2 - 1
     out = F.grid_sample(image[None], norm[None], mode="bicubic", padding_mode="border",
                         align_corners=False)[0].clamp(0, 1)
-    alpha = _blur(torch.from_numpy(moved).to(image), feather)
+    alpha = blur(torch.from_numpy(moved).to(image), feather)
     return alpha * out + (1 - alpha) * image, *counts
 
 
@@ -233,7 +233,7 @@ def plan(image: Tensor, labels: np.ndarray, groups: np.ndarray, seed: int | None
                                                        outline=outline, ground=ground)
 
 
-def _blur(mask: Tensor, sigma: float) -> Tensor:
+def blur(mask: Tensor, sigma: float) -> Tensor:
     """(H, W) -> (H, W): a separable Gaussian blur (replicated edges); sigma 0: unchanged."""
     if sigma <= 0:
         return mask

@@ -201,3 +201,27 @@ def test_cvt_grows_a_texture_file(files, tmp_path):
     assert cvt_main(["synthesize", "--from-image", str(files / "a.ntex"), "-o", str(out),
                      "--scale", "1.5", "--levels", "1", "--iterations", "1", "--quiet"]) == 0
     assert out.read_text().count("<path") > 1
+
+
+def test_transfer_between_texture_files_keeps_the_structure_in_the_other_palette(
+        files, tmp_path, capsys):
+    """a.ntex in b.ntex's colours (--mode palette, the default for two texture files): the
+    picture's colours come from b (its mean colour is b's reconstruction's, not a's), its
+    layout from a (it correlates with a's reconstruction far more than b's does)."""
+    b = tmp_path / "b.ntex"
+    assert main(["fit", str(files / "b.png"), "-o", str(b), "--steps", "30",
+                 "--segmenter", "felzenszwalb"]) == 0
+    for name, src in (("ra.png", files / "a.ntex"), ("rb.png", b)):
+        assert main(["reconstruct", str(src), "-o", str(tmp_path / name)]) == 0
+    assert main(["transfer", str(files / "a.ntex"), str(b), "-o", str(tmp_path / "t.png")]) == 0
+    load = lambda n: np.asarray(Image.open(tmp_path / n), np.float64) / 255  # noqa: E731
+    ra, rb, t = load("ra.png"), load("rb.png"), load("t.png")
+    mean = lambda x: x.reshape(-1, 3).mean(0)  # noqa: E731
+    assert np.abs(mean(t) - mean(rb)).max() < 0.5 * np.abs(mean(ra) - mean(rb)).max()
+    luma = lambda x: (x @ [0.299, 0.587, 0.114]).ravel()  # noqa: E731
+    corr = lambda x, y: np.corrcoef(luma(x), luma(y))[0, 1]  # noqa: E731
+    assert corr(t, ra) > 0.8 and corr(t, ra) > corr(rb, ra) + 0.3
+    assert main(["transfer", str(files / "a.ntex"), str(files / "b.png"), "-o",
+                 str(tmp_path / "x.png"), "--mode", "palette"]) == 2
+    assert "texture files" in capsys.readouterr().err
+    assert not (tmp_path / "x.png").exists()

@@ -87,7 +87,11 @@ def _with_appearance(structure, apps: list, regions, mode: str, seed: int):
 
 def cmd_transfer(args: argparse.Namespace) -> int:
     """Texture transfer (4.4.2): the structure (textons) of the first texture with the
-    appearance of the others; several appearances go to the regions of --regions."""
+    appearance of the others; several appearances go to the regions of --regions. Between
+    texture files (the default mode there, ``palette``): the structure's reconstruction by
+    its own tuned decoder, each texton recoloured with the appearance's texton colour of the
+    same luminance rank (:mod:`neuraltex.edit.palette`) — a tuned decoder given another
+    texture's layout paints smudges."""
     from neuraltex.imageio import check_output_path
 
     check_output_path(args.output)
@@ -95,11 +99,42 @@ def cmd_transfer(args: argparse.Namespace) -> int:
     model = _load(args)
     source = _texture(args, model, args.structure)
     apps = [_texture(args, model, p) for p in args.appearance]
+    tuned = all(t.decoder is not None for t in (source, *apps))
+    mode = args.mode or ("palette" if tuned else "mean")
+    if mode == "palette":
+        if not tuned:
+            raise InputError("--mode palette takes texture files (.ntex, from `neuraltex "
+                             "fit`) for the structure and every appearance")
+        out = _palette(args, source, apps, regions)
+        common.save(out, args.output)
+        return 0
     # the appearance's tuned decoder renders its own features (it was tuned on them)
     decoder, (*features, structure) = common.decoder_for(model, *apps, source)
-    out = _with_appearance(structure, features, regions, args.mode, args.seed or 0)
+    out = _with_appearance(structure, features, regions, mode, args.seed or 0)
     common.save(_decode(args, decoder, out, source.short), args.output)
     return 0
+
+
+def _palette(args: argparse.Namespace, source, apps: list, regions):
+    """The structure texture file's reconstruction in the colours of the appearance texture
+    file(s) (one per region of ``regions``, by texton centre) -> (3, H, W)."""
+    import torch
+
+    from neuraltex.edit.palette import rank_colours, recolour, texton_colours
+
+    with torch.no_grad():
+        rec = lambda tex, size: common.decode(tex.decoder, tex.textons, size,  # noqa: E731
+                                              args.device)[0].cpu()
+        colours, area = texton_colours(rec(source, tuple(source.labels.shape)), source.labels)
+        target = colours.copy()
+        for r, app in enumerate(apps):
+            new = rank_colours(colours, area, *texton_colours(
+                rec(app, tuple(app.labels.shape)), app.labels))
+            region = (slice(None) if regions is None else source.textons.in_region(
+                regions.to(source.textons.mu.device) == r)[0].cpu().numpy())
+            target[region] = new[region]
+        picture = _decode(args, source.decoder, source.textons, source.short).cpu()
+        return recolour(picture, source.labels, colours, target)
 
 
 def cmd_reshuffle(args: argparse.Namespace) -> int:
@@ -318,7 +353,7 @@ def add_commands(sub) -> None:
     p = cmd(sub, "transfer", cmd_transfer, "structure of one texture, appearance of another",
             "structure", img)
     p.add_argument("appearance", type=Path, nargs="+", help="appearance texture(s)")
-    _mode_and_regions(p)
+    _mode_and_regions(p, palette=True)
 
     p = cmd(sub, "reshuffle", cmd_reshuffle, "diversify: permute texton appearances", "image",
             f"{img}; with --count > 1 a pattern such as out_{{i}}.png")
@@ -392,8 +427,15 @@ def add_commands(sub) -> None:
     _mode_and_regions(p)
 
 
-def _mode_and_regions(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--mode", choices=("mean", "replace"), default="mean",
-                   help="mean: shift feature means (default); replace: draw features")
+def _mode_and_regions(p: argparse.ArgumentParser, palette: bool = False) -> None:
+    if palette:
+        p.add_argument("--mode", choices=("palette", "mean", "replace"), default=None,
+                       help="palette: texture files only, the structure's tuned decoder with "
+                       "the appearance's texton colours by luminance rank (default for "
+                       "texture files); mean: shift feature means (default otherwise); "
+                       "replace: draw features")
+    else:
+        p.add_argument("--mode", choices=("mean", "replace"), default="mean",
+                       help="mean: shift feature means (default); replace: draw features")
     p.add_argument("--regions", type=Path,
                    help="colour-coded mask, one colour per appearance (sorted by RGB)")

@@ -1,0 +1,78 @@
+"""Palette transfer between texture files: one tuned texture's structure and detail in the
+colours of another (seed 003, 4.4.2, for texture files).
+
+A tuned decoder renders only what it was tuned on: given another texture's layout, the
+appearance texture's G paints smudges, and blending two decoders' weights paints noise (both
+seen in earlier galleries). So the structure texture file is rendered as tuned — its own
+decoder, its own textons, sharp — and its textons are recoloured in the picture: texton k's
+segment takes the colour of the appearance texture's texton at the same rank of luminance,
+ranks weighted by area (histogram matching of the two textures' texton colours),
+
+    I'(x) = I(x) + c_B(q_k) - c_A,k   for x in segment k,   q_k = area share of A's textons
+                                                            darker than k (+ half of k's)
+
+where c_A,k is the segment's mean colour in A's reconstruction I and c_B(q) the colour at
+area quantile q of B's textons (linear between them); the shift is feathered across segment
+borders. Dark spots stay the dark ones, the ground the ground; the detail is A's own.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import torch
+import torch.nn.functional as F
+from torch import Tensor
+
+LUMA = (0.299, 0.587, 0.114)  # ITU-R BT.601 weights of R, G, B
+FEATHER = 1.0  # std (px) of the blend of two segments' colour shifts at their border
+
+
+def texton_colours(picture: Tensor, labels: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Mean colour (K, 3) and area (K,) in pixels of each texton's segment in a picture
+    (3, H, W); labels (h, w) texton of each pixel at the fit's size (resampled)."""
+    from neuraltex.fit import segment_means
+
+    H, W = picture.shape[-2:]
+    if labels.shape != (H, W):
+        lab = torch.from_numpy(np.ascontiguousarray(labels)).float()[None, None]
+        labels = F.interpolate(lab, size=(H, W), mode="nearest")[0, 0].long().numpy()
+    K = int(labels.max()) + 1
+    colours = segment_means(picture.detach().double().cpu(), labels)[0].numpy()
+    area = np.bincount(labels.ravel(), minlength=K).astype(np.float64)
+    return colours, area
+
+
+def quantiles(colours: np.ndarray, area: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(order by luminance (K,), area quantile of each texton's middle (K,) in that order)."""
+    order = np.argsort(colours @ np.asarray(LUMA), kind="stable")
+    a = area[order] / max(area.sum(), 1e-12)
+    return order, np.cumsum(a) - a / 2
+
+
+def rank_colours(colours_a: np.ndarray, area_a: np.ndarray, colours_b: np.ndarray,
+                 area_b: np.ndarray) -> np.ndarray:
+    """(K_a, 3): for each texton of A, the colour of B's textons at its area-weighted
+    luminance quantile (:func:`quantiles`), linear between B's textons."""
+    order_a, q_a = quantiles(colours_a, area_a)
+    order_b, q_b = quantiles(colours_b, area_b)
+    out = np.empty_like(colours_a)
+    for c in range(3):
+        out[order_a, c] = np.interp(q_a, q_b, colours_b[order_b, c])
+    return out
+
+
+def recolour(picture: Tensor, labels: np.ndarray, colours: np.ndarray, target: np.ndarray,
+             feather: float = FEATHER) -> Tensor:
+    """A picture (3, H, W) with every texton's segment (labels (h, w), resampled) moved from
+    its mean colour ``colours`` (K, 3) to ``target`` (K, 3): the shift of each pixel's
+    segment, blurred by ``feather`` px across segment borders, added; the detail inside a
+    segment (its shading, edges, the sprites) stays."""
+    from neuraltex.element_swap import blur
+
+    H, W = picture.shape[-2:]
+    lab = torch.from_numpy(np.ascontiguousarray(labels)).long()
+    if labels.shape != (H, W):
+        lab = F.interpolate(lab.float()[None, None], size=(H, W), mode="nearest")[0, 0].long()
+    shift = torch.from_numpy(target - colours).to(picture)[lab].permute(2, 0, 1)  # (3, H, W)
+    shift = torch.stack([blur(c, feather) for c in shift])
+    return (picture + shift).clamp(0, 1)
