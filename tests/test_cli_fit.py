@@ -203,14 +203,20 @@ def test_cvt_grows_a_texture_file(files, tmp_path):
     assert out.read_text().count("<path") > 1
 
 
+@pytest.fixture(scope="module")
+def b_file(files):
+    b = files / "b.ntex"
+    assert main(["fit", str(files / "b.png"), "-o", str(b), "--steps", "30",
+                 "--segmenter", "felzenszwalb"]) == 0
+    return b
+
+
 def test_transfer_between_texture_files_keeps_the_structure_in_the_other_palette(
-        files, tmp_path, capsys):
+        files, b_file, tmp_path, capsys):
     """a.ntex in b.ntex's colours (--mode palette, the default for two texture files): the
     picture's colours come from b (its mean colour is b's reconstruction's, not a's), its
     layout from a (it correlates with a's reconstruction far more than b's does)."""
-    b = tmp_path / "b.ntex"
-    assert main(["fit", str(files / "b.png"), "-o", str(b), "--steps", "30",
-                 "--segmenter", "felzenszwalb"]) == 0
+    b = b_file
     for name, src in (("ra.png", files / "a.ntex"), ("rb.png", b)):
         assert main(["reconstruct", str(src), "-o", str(tmp_path / name)]) == 0
     assert main(["transfer", str(files / "a.ntex"), str(b), "-o", str(tmp_path / "t.png")]) == 0
@@ -225,3 +231,30 @@ def test_transfer_between_texture_files_keeps_the_structure_in_the_other_palette
                  str(tmp_path / "x.png"), "--mode", "palette"]) == 2
     assert "texture files" in capsys.readouterr().err
     assert not (tmp_path / "x.png").exists()
+
+
+def test_interpolation_between_texture_files_runs_from_one_to_the_other(files, b_file,
+                                                                        tmp_path):
+    """At t = 0 the picture is a's reconstruction, at t = 1 b's (rendered at a's size), in
+    between the mean colour lies between theirs; --frames and --spatial run the same way."""
+    a = str(files / "a.ntex")
+    for name, src in (("ra.png", a), ("rb.png", str(b_file))):
+        assert main(["reconstruct", src, "-o", str(tmp_path / name)]) == 0
+    for t in ("0", "0.5", "1"):
+        assert main(["interpolate", a, str(b_file), "-o", str(tmp_path / f"t{t}.png"),
+                     "--t", t]) == 0
+    load = lambda n: np.asarray(Image.open(tmp_path / n), np.float64) / 255  # noqa: E731
+    ra, rb = load("ra.png"), load("rb.png")
+    assert np.abs(load("t0.png") - ra).max() < 2 / 255
+    assert np.abs(load("t1.png") - rb).max() < 2 / 255
+    m = load("t0.5.png").reshape(-1, 3).mean(0)
+    lo, hi = np.minimum(ra.reshape(-1, 3).mean(0), rb.reshape(-1, 3).mean(0)), np.maximum(
+        ra.reshape(-1, 3).mean(0), rb.reshape(-1, 3).mean(0))
+    assert ((m > lo - 0.02) & (m < hi + 0.02)).all()
+    assert main(["interpolate", a, str(b_file), "-o", str(tmp_path / "f.gif"),
+                 "--frames", "3"]) == 0
+    assert main(["interpolate", a, str(b_file), "-o", str(tmp_path / "s.png"),
+                 "--spatial"]) == 0
+    s = load("s.png")
+    assert np.abs(s[:, 0] - ra[:, 0]).max() < 2 / 255
+    assert np.abs(s[:, -1] - rb[:, -1]).max() < 2 / 255

@@ -3,7 +3,7 @@
 import numpy as np
 import torch
 
-from neuraltex.edit.palette import rank_colours, recolour, texton_colours
+from neuraltex.edit.palette import palette_blend, rank_colours, recolour, texton_colours
 
 
 def test_textons_take_the_colour_of_the_same_luminance_rank():
@@ -47,3 +47,23 @@ def test_texton_colours_follow_labels_at_the_fit_size():
     pic[0, :, 4:] = 1.0                               # right half red, at twice the size
     colours, area = texton_colours(pic, labels)
     assert np.allclose(colours, [[0, 0, 0], [1, 0, 0]]) and np.allclose(area, [32, 32])
+
+
+def test_the_blend_runs_from_a_to_b_and_keeps_the_contrast_in_the_middle():
+    g = torch.Generator().manual_seed(0)
+    a = 0.3 + 0.2 * torch.rand(3, 32, 32, generator=g)      # dark noise
+    b = 0.6 + 0.3 * torch.rand(3, 32, 32, generator=g)      # light noise, more contrast
+    la = np.arange(64).reshape(8, 8).repeat(4, 0).repeat(4, 1)  # 4 x 4 px textons
+    lb = np.zeros((32, 32), np.int64)
+    lb[:, 16:] = 1
+    assert torch.allclose(palette_blend(a, la, b, lb, 0.0), a, atol=1e-6)
+    assert torch.allclose(palette_blend(a, la, b, lb, 1.0), b, atol=1e-6)
+    mid = palette_blend(a, la, b, lb, 0.5)
+    plain = 0.5 * (a + b)                                   # a cross-fade: washed out
+    want = (0.5 * a.var((1, 2)) + 0.5 * b.var((1, 2))).sqrt()
+    assert (plain.std((1, 2)) < 0.8 * want).all()
+    assert torch.allclose(mid.std((1, 2)), want, rtol=0.1)
+    assert torch.allclose(mid.mean((1, 2)), plain.mean((1, 2)), atol=0.02)
+    ramp = palette_blend(a, la, b, lb, torch.linspace(0, 1, 32).expand(32, 32))
+    assert torch.allclose(ramp[:, :, 0], a[:, :, 0], atol=1e-6)
+    assert torch.allclose(ramp[:, :, -1], b[:, :, -1], atol=1e-6)

@@ -189,6 +189,9 @@ def cmd_interpolate(args: argparse.Namespace) -> int:
     model = _load(args)
     ta, tb = _texture(args, model, args.image), _texture(args, model, args.other)
     seed, short = args.seed or 0, ta.short
+    if ta.decoder is not None and tb.decoder is not None and not (
+            args.spatial and args.size and len(args.size) == 2):
+        return _palette_interpolate(args, ta, tb)
     if args.frames:
         _, (a, b) = common.decoder_for(model, ta, tb)
         frames = interpolate_frames(a, b, args.frames, seed)
@@ -203,6 +206,46 @@ def cmd_interpolate(args: argparse.Namespace) -> int:
     out = interpolate_spatially(a, b, seed) if args.spatial else interpolate(a, b, args.t, seed)
     common.save(_decode(args, decoder, out, short), args.output)
     return 0
+
+
+def _palette_interpolate(args: argparse.Namespace, ta, tb) -> int:
+    """Interpolation between two texture files, each rendered sharp by its own tuned decoder
+    and brought to one palette (:func:`neuraltex.edit.palette.palette_blend`): a decoder
+    blended between two tunings paints noise. B is rendered at A's picture size (cropped to
+    A's aspect first)."""
+    import torch
+
+    from neuraltex.edit.palette import palette_blend
+
+    with torch.no_grad():
+        a = _decode(args, ta.decoder, ta.textons, ta.short).cpu()
+        b = _fitted(_decode(args, tb.decoder, tb.textons, ta.short).cpu(), a.shape[-2:])
+        H, W = a.shape[-2:]
+        if args.frames:
+            ts = [i / (args.frames - 1) for i in range(args.frames)]
+            frames = [palette_blend(a, ta.labels, b, tb.labels, t)
+                      for t in _progress("frames")(ts)]
+            _save_frames(frames, args.output, args.fps)
+            return 0
+        t = (torch.linspace(0, 1, W).expand(H, W) if args.spatial else args.t)
+        common.save(palette_blend(a, ta.labels, b, tb.labels, t), args.output)
+    return 0
+
+
+def _fitted(picture, size):
+    """A picture (3, h, w) cropped about its centre to the aspect of ``size`` (H, W) and
+    resampled to it."""
+    import torch.nn.functional as F
+
+    H, W = size
+    h, w = picture.shape[-2:]
+    ch, cw = min(h, round(w * H / W)), min(w, round(h * W / H))
+    y, x = (h - ch) // 2, (w - cw) // 2
+    crop = picture[:, y:y + ch, x:x + cw]
+    if (ch, cw) == (H, W):
+        return crop
+    return F.interpolate(crop[None], size=(H, W), mode="bilinear", antialias=True,
+                         align_corners=False)[0].clamp(0, 1)
 
 
 def _grown(args: argparse.Namespace, model, tex: common.Texture) -> common.Texture:

@@ -76,3 +76,27 @@ def recolour(picture: Tensor, labels: np.ndarray, colours: np.ndarray, target: n
     shift = torch.from_numpy(target - colours).to(picture)[lab].permute(2, 0, 1)  # (3, H, W)
     shift = torch.stack([blur(c, feather) for c in shift])
     return (picture + shift).clamp(0, 1)
+
+
+def palette_blend(a: Tensor, labels_a: np.ndarray, b: Tensor, labels_b: np.ndarray,
+                  t: Tensor | float) -> Tensor:
+    """Interpolation between two texture files' reconstructions a, b (3, H, W; labels
+    (h, w) of each): at t (a float, or (H, W) for a spatial ramp) each picture is recoloured
+    t (resp. 1 - t) of the way toward the other's palette by luminance rank (so both show one
+    palette), then the two are mixed, (1 - t) a_t + t b_t, with the variance the mix loses
+    restored: for uncorrelated textures it falls to (1 - t)^2 s_a^2 + t^2 s_b^2 (a washed-out
+    middle), and it is scaled around the mean back to (1 - t) s_a^2 + t s_b^2 per channel."""
+    ca, na = texton_colours(a, labels_a)
+    cb, nb = texton_colours(b, labels_b)
+    a_as_b = recolour(a, labels_a, ca, rank_colours(ca, na, cb, nb))
+    b_as_a = recolour(b, labels_b, cb, rank_colours(cb, nb, ca, na))
+    t = torch.as_tensor(t, dtype=a.dtype)
+    a_t = torch.lerp(a, a_as_b, t)
+    b_t = torch.lerp(b_as_a, b, t)
+    mix = torch.lerp(a_t, b_t, t)
+    var_a, var_b = a.var((1, 2))[:, None, None], b.var((1, 2))[:, None, None]  # (3, 1, 1)
+    mean = torch.lerp(a_t.mean((1, 2), keepdim=True), b_t.mean((1, 2), keepdim=True), t)
+    lost = (1 - t) ** 2 * var_a + t ** 2 * var_b
+    want = (1 - t) * var_a + t * var_b
+    gain = (want / lost.clamp_min(1e-8)).sqrt()
+    return (mean + gain * (mix - mean)).clamp(0, 1)
