@@ -4,10 +4,10 @@
     python scripts/real_gallery.py --seconds 10 --out /tmp/g
 
 Each texture of data/real_textures is tuned (``neuraltex fit``), then one row shows:
-input | reconstruction | 2 reshuffles (by elements) | transfer (this texture's structure with the
-next texture's appearance, rendered by the appearance's decoder) | interpolation with the next
-texture (t = 0.5, decoders blended) | vary (appearance 0.3). Writes ``real_gallery.png`` and
-``real_animate.gif`` (vortex flow on the first texture).
+input | reconstruction | 2 reshuffles (by elements) | transfer (this texture's structure in the
+next texture's palette, ``neuraltex transfer A.ntex B.ntex``) | interpolation with the next
+texture (t = 0.5, ``neuraltex interpolate A.ntex B.ntex``) | vary (appearance 0.3). Writes
+``real_gallery.png`` and ``real_animate.gif`` (vortex flow on the first texture).
 """
 
 from __future__ import annotations
@@ -24,14 +24,13 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from make_gallery import strip  # noqa: E402
 
 from neuraltex.edit.animation import animate  # noqa: E402
-from neuraltex.edit.interpolate import interpolate  # noqa: E402
-from neuraltex.edit.transfer import transfer  # noqa: E402
+from neuraltex.edit.palette import palette_blend, palette_transfer  # noqa: E402
 from neuraltex.edit.vary import vary  # noqa: E402
 from neuraltex.element_swap import swap_elements  # noqa: E402
 from neuraltex.fit import FitSettings, fit_texture  # noqa: E402
 from neuraltex.imageio import load_image, save_frames, save_pil, stack_rows  # noqa: E402
 from neuraltex.model import DEFAULT_MODEL, load_model  # noqa: E402
-from neuraltex.tuned_decoder import COLOUR, combine, tuned_model  # noqa: E402
+from neuraltex.tuned_decoder import COLOUR, tuned_model  # noqa: E402
 
 REAL = Path(__file__).resolve().parents[1] / "data" / "real_textures"
 DOCS = Path(__file__).resolve().parents[1] / "docs"
@@ -60,8 +59,9 @@ def main() -> None:
                      (fit.labels, fit.elements)))
     rows = []
     for i, (name, image, t, dec, groups) in enumerate(fits):
-        other_name, _, u, other, _ = fits[(i + 1) % len(fits)]
-        rows.append(strip(row(model, name, image, t, dec, groups, other_name, u, other)))
+        other_name, _, u, other, (other_labels, _) = fits[(i + 1) % len(fits)]
+        rows.append(strip(row(name, image, t, dec, groups, other_name, u, other,
+                              other_labels)))
     args.out.mkdir(parents=True, exist_ok=True)
     save_pil(stack_rows(rows), args.out / "real_gallery.png")
     name, image, t, dec, _ = fits[0]
@@ -73,18 +73,21 @@ def main() -> None:
 
 
 @torch.no_grad()
-def row(model, name, image, t, dec, groups, other_name, u, other) -> list:
+def row(name, image, t, dec, groups, other_name, u, other, other_labels) -> list:
+    """One gallery row of texture ``name`` (its textons t, tuned decoder dec, (labels,
+    elements) groups), with the next texture (textons u, decoder other) as the second."""
     size = tuple(image.shape[-2:])
     plain = dec.generator.feature_channels - 2  # [f_a, d]; detail sprites after
     rec = dec.decode(t, size)
+    rec_other = other.decode(u, size)[0]
+    labels = groups[0]
     tiles = [(name, image), ("fit reconstruction", rec)]
     for seed in (1, 2):
         tiles.append((f"reshuffle {seed}", swap_elements(rec[0], *groups, seed=seed)[None]))
-    app_dec, (app, structure) = combine(model, [(u, other), (t, dec)])
-    tiles.append((f"+ {other_name} look", app_dec.decode(transfer(structure, app, "mean", 0),
-                                                           size)))
-    mid_dec, (a, b) = combine(model, [(t, dec), (u, other)], t=0.5)
-    tiles.append((f"<-> {other_name} 0.5", mid_dec.decode(interpolate(a, b, 0.5, 0), size)))
+    tiles.append((f"{other_name} palette", palette_transfer(rec[0], labels, rec_other,
+                                                             other_labels)[None]))
+    tiles.append((f"<-> {other_name} 0.5", palette_blend(rec[0], labels, rec_other,
+                                                         other_labels, 0.5)[None]))
     tiles.append(("vary 0.3", dec.decode(vary(t, 0.3, 1.0, keep=plain - COLOUR), size)))
     return tiles
 

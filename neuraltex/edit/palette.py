@@ -100,3 +100,11 @@ def palette_blend(a: Tensor, labels_a: np.ndarray, b: Tensor, labels_b: np.ndarr
     want = (1 - t) * var_a + t * var_b
     gain = (want / lost.clamp_min(1e-8)).sqrt()
     return (mean + gain * (mix - mean)).clamp(0, 1)
+
+
+def palette_transfer(a: Tensor, labels_a: np.ndarray, b: Tensor,
+                     labels_b: np.ndarray) -> Tensor:
+    """Picture a (3, H, W) recoloured texton by texton with picture b's texton colours of
+    the same luminance rank (:func:`rank_colours`); labels (h, w) of each."""
+    ca, na = texton_colours(a, labels_a)
+    return recolour(a, labels_a, ca, rank_colours(ca, na, *texton_colours(b, labels_b)))
