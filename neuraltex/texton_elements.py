@@ -9,7 +9,9 @@ its pixels; concentric textons and *hugging* elements (a coin's rim arcs, a rose
 almost all their pixels within a quarter radius of a larger element) join too; an element
 as large as a background (BACKGROUND_SHARE of the canvas) is parted again by the segments at
 ``FINER`` times the fit's scale, so the stones of gravel or a wall, one mass at the coarse
-scale, are elements of their own while a true backdrop stays whole.
+scale, are elements of their own while a true backdrop stays whole; and a *mosaic* — a union
+of textons that are compact on their own but not together, stones alike in colour — is parted
+into its textons.
 
 A reshuffle moves whole elements: element e takes the place of element pi(e), pi a random
 permutation within a *shape class* (area within a factor ``SIZE_RATIO``, elongation within a
@@ -48,6 +50,8 @@ SIZE_RATIO = 1.1     # largest area ratio of two elements that trade places
 ELONGATED = 1.5      # sqrt(l1 / l2) above which an element has a direction
 HUG_REACH = 0.25     # a hugging element lies within this many radii of a larger one ...
 HUG_SHARE = 0.8      # ... with this share of its pixels
+LOOSE = 0.7          # solidity below which a union of compact textons is a mosaic ...
+MEMBER = 0.75        # ... when the median solidity of its textons is at least this
 
 
 def group_textons(image: Tensor, labels: np.ndarray, textons: Textons | None = None,
@@ -77,8 +81,9 @@ def group_textons(image: Tensor, labels: np.ndarray, textons: Textons | None = N
     i, j = _hugging(groups[labels])
     graph = coo_matrix((np.ones(len(i)), (i, j)), shape=(groups.max() + 1,) * 2)
     groups = connected_components(graph, directed=False)[1][groups].astype(np.int64)
-    return _finer_in_background(groups, labels,
-                                lambda: felzenszwalb_labels(arr, MAX_SEGMENTS, coarser=FINER))
+    groups = _finer_in_background(groups, labels,
+                                  lambda: felzenszwalb_labels(arr, MAX_SEGMENTS, coarser=FINER))
+    return _parted_mosaics(groups, labels)
 
 
 def _finer_in_background(groups: np.ndarray, labels: np.ndarray,
@@ -99,6 +104,36 @@ def _finer_in_background(groups: np.ndarray, labels: np.ndarray,
     joint = np.zeros((K, int(fine.max()) + 1), np.int64)
     np.add.at(joint, (labels.ravel(), fine.ravel()), 1)
     key = np.where(big[groups], groups.max() + 1 + joint.argmax(1), groups)
+    return np.unique(key, return_inverse=True)[1].ravel().astype(np.int64)
+
+
+def solidity(regions: np.ndarray) -> np.ndarray:
+    """(R,) filled area over convex-hull area of each region of an (H, W) map of ids
+    0..R-1 (holes filled: a ring counts as the disc it encloses); 1 for an absent id."""
+    from skimage.measure import regionprops
+
+    out = np.ones(int(regions.max()) + 1)
+    for r in regionprops(regions + 1):
+        out[r.label - 1] = r.area_filled / r.area_convex
+    return out
+
+
+def _parted_mosaics(groups: np.ndarray, labels: np.ndarray) -> np.ndarray:
+    """Elements (K,) of textons (labels (H, W)) with every *mosaic* parted into its textons:
+    an element of at least 3 textons, not background-sized, whose union is not compact
+    (solidity below LOOSE) while its textons are (median solidity MEMBER or more) — stones of
+    a wall that the coarse scale merged because they look alike. A coin (a compact union of
+    fragments) and a rosette (ring arcs, not compact themselves) stay whole. -> (K,) int64."""
+    K = len(groups)
+    n = np.bincount(groups)
+    area = np.bincount(groups[labels].ravel(), minlength=len(n))
+    member = solidity(labels)[:K]
+    typical = np.array([np.median(member[groups == e]) for e in range(len(n))])
+    mosaic = ((n >= 3) & (area < BACKGROUND_SHARE * labels.size)
+              & (solidity(groups[labels]) < LOOSE) & (typical >= MEMBER))
+    if not mosaic.any():
+        return groups
+    key = np.where(mosaic[groups], groups.max() + 1 + np.arange(K), groups)
     return np.unique(key, return_inverse=True)[1].ravel().astype(np.int64)
 
 

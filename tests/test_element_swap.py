@@ -176,3 +176,29 @@ def test_elements_trade_only_with_elements_on_a_ground_like_their_own():
     for i, (cy, cx) in enumerate(CENTRES):
         came = round(float(out[0, cy, cx]) / 0.1) - 1
         assert came != i and CENTRES[came][0] == cy               # same row: same ground
+
+
+def test_a_mosaic_of_compact_textons_is_parted_and_coins_and_rings_stay_whole():
+    """Three groups of 4 textons each on a 96 x 96 canvas: four separate squares in a row
+    with gaps (stones alike in colour: the union is not compact, its pieces are) -> four
+    elements; a disc cut into quarters (a coin's fragments: a compact union) and an open ring
+    cut into arcs (a rosette: its pieces are not compact) -> one element each."""
+    from neuraltex.texton_elements import _parted_mosaics
+
+    labels = np.full((96, 96), 12, np.int64)                        # texton 12: the ground
+    for i in range(4):                                               # squares 0..3
+        labels[8:18, 8 + 20 * i:18 + 20 * i] = i
+    yy, xx = np.mgrid[0:96, 0:96]
+    ang = np.arctan2(yy - 60, xx - 24)
+    r = np.hypot(yy - 60, xx - 24)
+    quarter = ((ang + np.pi) // (np.pi / 2)).astype(np.int64) % 4
+    labels[r <= 12] = 4 + quarter[r <= 12]                           # disc: textons 4..7
+    r2 = np.hypot(yy - 60, xx - 70)
+    ang2 = np.arctan2(yy - 60, xx - 70)
+    arc = (r2 >= 9) & (r2 <= 13) & (ang2 < 0.75 * np.pi)              # open ring
+    labels[arc] = 8 + ((ang2[arc] + np.pi) // (np.pi / 2)).astype(np.int64) % 4
+    groups = np.array([0, 0, 0, 0, 1, 1, 1, 1, 2, 2, 2, 2, 3])
+    out = _parted_mosaics(groups, labels)
+    assert len(set(out[:4])) == 4                                    # the squares parted
+    assert len(set(out[4:8])) == 1 and len(set(out[8:12])) == 1      # coin, ring whole
+    assert out[4] != out[8] and out[12] not in out[:12]
