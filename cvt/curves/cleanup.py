@@ -18,6 +18,7 @@ from __future__ import annotations
 import numpy as np
 import torch
 
+from cvt.curves.closure import close_ends
 from cvt.curves.ends import CAP_REACH, capped_ends, facing_pairs, outward, run_on
 from cvt.curves.graph import CurveGraph, components
 
@@ -163,6 +164,9 @@ def drop_fragments(out: CurveGraph, exemplar: CurveGraph, in_box, out_box, delta
 def repair_ends(out: CurveGraph, exemplar: CurveGraph, in_box, out_box, delta: float,
                 keep: int = 0) -> CurveGraph:
     """Stroke ends beyond the exemplar's end density: joined where two face each other, else
-    their short broken-off fragments removed."""
+    their short broken-off fragments removed; none left where the exemplar has none
+    (cvt.curves.closure)."""
     out = join_ends(out, exemplar, in_box, out_box, delta)
-    return drop_fragments(out, exemplar, in_box, out_box, delta, keep=keep)
+    out = drop_fragments(out, exemplar, in_box, out_box, delta, keep=keep)
+    return close_ends(out, end_rate(exemplar, in_box, 2 * delta),
+                      _interior(out, out_box, 2 * delta), delta, keep=keep)
