@@ -56,9 +56,10 @@ def test_a_bridge_that_would_cross_a_stroke_is_not_drawn():
     pos = out.pos.numpy()
     a = int(np.argmin(np.linalg.norm(pos - [40, 50], axis=1)))
     b = int(np.argmin(np.linalg.norm(pos - [60, 50], axis=1)))
-    assert len(_bridged(out, [(a, b)], DELTA)) == len(out)
+    assert len(_bridged(out, [(a, b)], DELTA, 2)[0]) == len(out)
     clear = _graph([[[0, 50], [40, 50]], [[100, 50], [60, 50]]])
-    assert len(_bridged(clear, [(a, b)], DELTA)) > len(clear)
+    assert len(_bridged(clear, [(a, b)], DELTA, 2)[0]) > len(clear)
+    assert len(_bridged(clear, [(a, b)], DELTA, 1)[0]) == len(clear)  # over the budget
 
 
 def test_an_open_ring_is_closed_again():
@@ -81,5 +82,11 @@ def test_a_loose_stroke_goes_unless_it_is_the_users():
 
 def test_exemplars_with_ends_keep_theirs():
     out = _graph([[[30, 60], [70, 60]]])
-    same = close_ends(out, 0.05, _inner(out), DELTA)
-    assert same is out
+    assert close_ends(out, 0.05, _inner(out), DELTA) is out
+    # scarce ends (under 1 per 100 samples): as many stay as the exemplar's rate allows
+    lines = [[[0, y], [100, y]] for y in (4, 8, 12, 16, 20, 24)]  # many samples, no ends
+    pieces = _graph([*lines, [[10, 50], [50, 50]], [[78, 88], [92, 88]]])
+    n = int(_inner(pieces).sum())
+    two = close_ends(pieces, 2.5 / n, _inner(pieces), DELTA)
+    assert _interior_ends(two) == 2 and len(two) < len(pieces)
+    assert (two.pos.numpy()[:, 1] < 70).all()  # the smaller loose piece went first

@@ -28,7 +28,7 @@ from scipy.spatial import cKDTree
 from cvt.curves.ends import _hops, _other_end, facing_pairs, outward, run_on
 from cvt.curves.graph import CurveGraph, components
 
-NO_ENDS = 0.01  # exemplars with fewer interior ends per curve sample have none to copy
+SCARCE = 0.01  # exemplars with fewer interior ends per curve sample: each end a feature
 REACH = 12.0  # deltas
 ASIDE = -0.5  # cosine: joins may leave an end up to 120 degrees off its direction
 MIN_LOOP = 6  # hops: an end is not joined to its own stroke closer than this
@@ -81,16 +81,20 @@ def _clear(tree: cKDTree, path: np.ndarray, delta: float) -> bool:
     return len(path) == 0 or bool((tree.query(path)[0] > 0.7 * delta).all())
 
 
-def _bridged(g: CurveGraph, joins: list[tuple[int, int]], delta: float) -> CurveGraph:
+def _bridged(g: CurveGraph, joins: list[tuple[int, int]], delta: float,
+             budget: int) -> tuple[CurveGraph, int]:
     """``g`` with the joins that stay clear of other strokes drawn as bridges of samples
-    (styled like the end they leave)."""
+    (styled like the end they leave), in order while they resolve no more than ``budget``
+    ends; and the ends left to resolve."""
     pos, nbr = g.pos.numpy(), g.adjacency()
     tree, n = cKDTree(pos), len(g)
     pts, style, edges = [], [], []
     for a, b in joins:
         path = bridge(pos, nbr, a, b, delta)
-        if not _clear(tree, path, delta):
+        cost = 2 if len(nbr[b]) == 1 else 1
+        if cost > budget or not _clear(tree, path, delta):
             continue
+        budget -= cost
         ids = list(range(n, n + len(path)))
         n += len(path)
         chain = [a, *ids, b]
@@ -98,38 +102,46 @@ def _bridged(g: CurveGraph, joins: list[tuple[int, int]], delta: float) -> Curve
         pts.append(path)
         style += [int(g.style[a])] * len(path)
     if not edges:
-        return g
+        return g, budget
     k = len(style)
     minus = torch.full((k,), -1, dtype=torch.long)
     extra = CurveGraph(torch.from_numpy(np.concatenate(pts)), torch.tensor(style), minus,
                        minus.clone(), torch.ones(k, dtype=torch.float64), minus.clone(),
                        torch.zeros(0, 2, dtype=torch.long), g.styles)
     out = g.cat(extra)
-    return out.with_edges(torch.cat([out.edges, torch.tensor(edges, dtype=torch.long)]))
+    return out.with_edges(torch.cat([out.edges, torch.tensor(edges, dtype=torch.long)])), budget
 
 
-def _loose(g: CurveGraph, ends: np.ndarray, keep: int) -> np.ndarray:
-    """Samples of the components that hold one of ``ends`` and no junction (step 4)."""
+def _loose(g: CurveGraph, ends: np.ndarray, keep: int, budget: int) -> np.ndarray:
+    """Samples of the smallest components that hold some of ``ends`` and no junction, while
+    they hold no more than ``budget`` of them (step 4). Shape: -> (N,) bool."""
     _, lab = components(len(g), g.edges.numpy())
     junction = np.bincount(lab, weights=(g.degree().numpy() >= 3).astype(float)) > 0
     junction[lab[:keep]] = True
-    bad = np.zeros(len(junction), dtype=bool)
-    bad[lab[ends]] = True
-    return (bad & ~junction)[lab]
+    count = np.bincount(lab[ends], minlength=len(junction))
+    size = np.bincount(lab)
+    drop = np.zeros(len(junction), dtype=bool)
+    for c in np.argsort(size, kind="stable"):
+        if count[c] and not junction[c] and count[c] <= budget:
+            drop[c] = True
+            budget -= count[c]
+    return drop[lab]
 
 
 def close_ends(out: CurveGraph, end_rate: float, inner: np.ndarray, delta: float,
                keep: int = 0) -> CurveGraph:
-    """``out`` with no interior stroke end left where the exemplar's ``end_rate`` (interior
-    ends per curve sample) says it has none. ``inner`` (N,) bool: samples far enough inside
-    the output canvas for their ends to count (border ends are the canvas' cut)."""
-    if end_rate >= NO_ENDS:
+    """``out`` with no more interior stroke ends than the exemplar's ``end_rate`` (interior
+    ends per curve sample) allows, where that rate is under ``SCARCE``. ``inner`` (N,) bool:
+    samples far enough inside the output canvas for their ends to count (border ends are the
+    canvas' cut)."""
+    if end_rate >= SCARCE:
         return out
     ends = _ends(out, inner)
-    if len(ends) == 0:
+    budget = len(ends) - int(end_rate * int((inner & (out.kind.numpy() < 0)).sum()))
+    if budget <= 0:
         return out
-    out = _bridged(out, _joins(out, ends, delta), delta)
+    out, budget = _bridged(out, _joins(out, ends, delta), delta, budget)
     inner = np.r_[inner, np.ones(len(out) - len(inner), dtype=bool)]  # bridges: inside
-    drop = _loose(out, _ends(out, inner), keep)
+    drop = _loose(out, _ends(out, inner), keep, budget)
     drop[:keep] = False
     return out.select(torch.from_numpy(np.flatnonzero(~drop))) if drop.any() else out

@@ -43,9 +43,11 @@ def outward(pos: np.ndarray, nbr: list[list[int]], ends: np.ndarray) -> np.ndarr
 
 
 def facing_pairs(pos: np.ndarray, ends: np.ndarray, away: np.ndarray, reach: float,
-                 facing: float) -> list[tuple[int, int]]:
+                 facing: float, style: np.ndarray | None = None) -> list[tuple[int, int]]:
     """Pairs of ends closer than ``reach`` whose outward directions point at each other
-    within acos(``facing``), nearest first, each end in at most one pair."""
+    within acos(``facing``), nearest first, each end in at most one pair; with ``style``
+    (N,), only ends of one stroke style (a break lies inside one stroke: a thin line that
+    stops at a thick one is not broken)."""
     if len(ends) < 2:
         return []
     pairs = cKDTree(pos[ends]).query_pairs(reach, output_type="ndarray")
@@ -55,6 +57,8 @@ def facing_pairs(pos: np.ndarray, ends: np.ndarray, away: np.ndarray, reach: flo
     dist = np.linalg.norm(d, axis=1).clip(1e-12)
     ok = ((away[pairs[:, 0]] * d).sum(1) / dist > facing) & \
          ((-away[pairs[:, 1]] * d).sum(1) / dist > facing)
+    if style is not None:
+        ok &= style[ends[pairs[:, 0]]] == style[ends[pairs[:, 1]]]
     used: set[int] = set()
     out = []
     for k in np.flatnonzero(ok)[np.argsort(dist[ok], kind="stable")]:
@@ -159,15 +163,15 @@ def close_breaks(g: CurveGraph, want: np.ndarray, reach: float, facing: float = 
         ends = ends[~rim[ends]]
     if len(ends) == 0:
         return g
-    pos, nbr = g.pos.numpy(), g.adjacency()
+    pos, nbr, style = g.pos.numpy(), g.adjacency(), g.style.numpy()
     away = outward(pos, nbr, ends)
-    new = [(a, b) for a, b in facing_pairs(pos, ends, away, reach, facing)
+    new = [(a, b) for a, b in facing_pairs(pos, ends, away, reach, facing, style)
            if b not in _hops(nbr, a, min_loop)]
     done = {v for e in new for v in e}
     left = np.array([k for k, v in enumerate(ends) if v not in done], dtype=int)
     if len(left) > 1:
-        new += [(a, b) for a, b in facing_pairs(pos, ends[left], away[left], reach / 2, -1.01)
-                if b not in _hops(nbr, a, min_loop)]
+        new += [(a, b) for a, b in facing_pairs(pos, ends[left], away[left], reach / 2, -1.01,
+                                                style) if b not in _hops(nbr, a, min_loop)]
     new += _reclose(pos, nbr, ends, {v for e in new for v in e}, 2 * reach, 3 * min_loop)
     done = {v for e in new for v in e}
     rest = np.array([k for k, v in enumerate(ends) if v not in done], dtype=int)
