@@ -28,6 +28,15 @@ def _want(g, value):
     return np.full(len(g), float(value))
 
 
+def test_a_break_between_two_stroke_styles_is_not_closed():
+    two = [StrokeStyle("#000000", 1.0), StrokeStyle("#00aa00", 6.0)]
+    g = stroke_graph([Stroke(np.array([[0.0, 50], [45, 50]]), False, 0),
+                      Stroke(np.array([[51.0, 50], [100, 50]]), False, 1)], two, 2.0)
+    assert len(close_breaks(g, _want(g, 2.0), reach=8.0).edges) == len(g.edges)
+    same = g.with_(style=torch.zeros(len(g), dtype=torch.long))
+    assert len(close_breaks(same, _want(g, 2.0), reach=8.0).edges) == len(g.edges) + 1
+
+
 def test_a_break_inside_a_stroke_is_closed_only_where_the_matches_say_stroke():
     g = _graph([[[0, 50], [45, 50]], [[51, 50], [100, 50]]])  # a 6-unit break
     fixed = close_breaks(g, _want(g, 2.0), reach=8.0)
