@@ -147,3 +147,16 @@ def test_ends_on_the_domain_rim_are_not_joined():
     rim[(x > 40) & (x < 56)] = True  # the border runs through the break
     assert len(close_breaks(g, _want(g, 2.0), reach=8.0, rim=rim).edges) == len(g.edges)
     assert len(close_breaks(g, _want(g, 2.0), reach=8.0).edges) == len(g.edges) + 1
+
+
+def test_ends_side_by_side_stay_apart_where_the_exemplar_has_them():
+    from cvt.curves.ends import SIDE_BY_SIDE, side_by_side
+
+    bundle = _graph([[[20, y], [60, y]] for y in (40, 43, 46, 49)])  # parallel hatch strokes
+    assert side_by_side(bundle, bundle.degree().numpy(), 4.0) > SIDE_BY_SIDE
+    apart = _graph([[[20, 20], [60, 20]], [[20, 80], [60, 80]]])
+    assert side_by_side(apart, apart.degree().numpy(), 4.0) == 0.0
+    tip = _graph([[[20, 50], [60, 50]], [[20, 53], [60, 53]]])  # a U-turn that lost its tip
+    want = _want(tip, 2.0)
+    assert len(close_breaks(tip, want, reach=8.0).edges) == len(tip.edges) + 2
+    assert len(close_breaks(tip, want, reach=8.0, side=False).edges) == len(tip.edges)

@@ -26,11 +26,13 @@ from cvt.assignment import assign_positions
 from cvt.curves.edges import assign_edges, expected_degree
 from cvt.curves.ends import (
     CAP_REACH,
+    SIDE_BY_SIDE,
     capped_ends,
     close_breaks,
     drop_broken,
     end_evidence,
     near_element,
+    side_by_side,
     unwanted_ends,
 )
 from cvt.curves.existence import existence, missing_samples
@@ -110,6 +112,7 @@ class _Level:
     fixed_edges: torch.Tensor
     capped: np.ndarray  # (N_in,) bool: input ends with a discrete element at them
     deg_in: torch.Tensor  # (N_in,) input degrees, ends cut by the exemplar's canvas as 2
+    side: bool  # join unwanted ends side by side (the exemplar has few such ends itself)
 
     @property
     def end_free(self) -> bool:
@@ -167,8 +170,10 @@ def _level_state(lv, inp, cx, cfg, domain, fixed) -> _Level:
     index = _input_index(inp, cx.box, lv, cfg)
     n_fixed = 0 if fixed is None else len(fixed)
     keep = torch.zeros(0, 2, dtype=torch.long) if fixed is None else fixed.edges
+    deg = run_on_degree(inp, cx.box, lv.delta)
+    side = side_by_side(inp, deg.numpy(), cfg.end_reach / 2 * lv.delta) < SIDE_BY_SIDE
     return _Level(lv, inp, edge_embedding(inp), index, domain, n_fixed, keep,
-                  capped_ends(inp, CAP_REACH * lv.delta), run_on_degree(inp, cx.box, lv.delta))
+                  capped_ends(inp, CAP_REACH * lv.delta), deg, side)
 
 
 def run_on_degree(inp: CurveGraph, box, delta: float) -> torch.Tensor:
@@ -254,9 +259,9 @@ def _assign(out: CurveGraph, m, s: _Level, cfg: CurveConfig):
     out = out.with_(edges=assign_edges(m, out, s.inp, cfg.reach * s.lv.delta,
                                        keep=s.fixed_edges))
     if not s.end_free:
-        return close_breaks(out, want, cfg.end_reach * s.lv.delta), want
+        return close_breaks(out, want, cfg.end_reach * s.lv.delta, side=s.side), want
     rim = _rim(out.pos, s.inside, 2 * s.lv.delta)  # the farther joins stay off the border
-    return close_breaks(out, want, cfg.free_reach * s.lv.delta, rim=rim), want
+    return close_breaks(out, want, cfg.free_reach * s.lv.delta, rim=rim, side=s.side), want
 
 
 def _voted_style(out: CurveGraph, m, s: _Level) -> torch.Tensor:
