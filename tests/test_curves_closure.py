@@ -90,3 +90,12 @@ def test_exemplars_with_ends_keep_theirs():
     two = close_ends(pieces, 2.5 / n, _inner(pieces), DELTA)
     assert _interior_ends(two) == 2 and len(two) < len(pieces)
     assert (two.pos.numpy()[:, 1] < 70).all()  # the smaller loose piece went first
+
+
+def test_a_stub_on_a_stroke_is_cut_back_to_its_junction():
+    out = _graph([[[0, 20], [100, 20]], [[50, 20], [50, 50]]])  # a T whose leg ends in paper
+    assert int((out.degree() >= 3).sum()) == 1 and _interior_ends(out) == 1
+    fixed = close_ends(out, 0.0, _inner(out), DELTA)
+    assert _interior_ends(fixed) == 0
+    assert (fixed.pos.numpy()[:, 1] < 21).all()  # the leg went, the line stayed whole
+    assert len(fixed) == len(out) - 15

@@ -14,7 +14,8 @@ output, nearest evidence first:
 Each join is drawn as a bridge of samples on a smooth (Hermite) curve along the end's
 tangent, not as one long straight edge, and only where the bridge stays off other strokes;
 4. what is still open and has no junction (a loose open stroke, or one hanging from the
-   canvas border) is removed: the exemplar has no such piece.
+   canvas border) is removed, smallest first: the exemplar has no such piece; then stubs
+   (end -> junction) are cut back to their junction, shortest first.
 
 The first ``keep`` samples (a user's strokes in autocomplete) are never removed.
 """
@@ -25,7 +26,7 @@ import numpy as np
 import torch
 from scipy.spatial import cKDTree
 
-from cvt.curves.ends import _hops, _other_end, facing_pairs, outward, run_on
+from cvt.curves.ends import _hops, _other_end, _spur, facing_pairs, outward, run_on
 from cvt.curves.graph import CurveGraph, components
 
 SCARCE = 0.01  # exemplars with fewer interior ends per curve sample: each end a feature
@@ -128,6 +129,17 @@ def _loose(g: CurveGraph, ends: np.ndarray, keep: int, budget: int) -> np.ndarra
     return drop[lab]
 
 
+def _stubs(g: CurveGraph, ends: np.ndarray, budget: int) -> np.ndarray:
+    """Samples of the shortest spurs (end -> junction, the junction kept) from ``ends``, at
+    most ``budget`` of them (step 4). Shape: -> (N,) bool."""
+    nbr = g.adjacency()
+    chains = sorted((c for c in (_spur(nbr, int(v), len(g)) for v in ends) if c), key=len)
+    drop = np.zeros(len(g), dtype=bool)
+    for c in chains[: max(budget, 0)]:
+        drop[c] = True
+    return drop
+
+
 def close_ends(out: CurveGraph, end_rate: float, inner: np.ndarray, delta: float,
                keep: int = 0) -> CurveGraph:
     """``out`` with no more interior stroke ends than the exemplar's ``end_rate`` (interior
@@ -142,6 +154,8 @@ def close_ends(out: CurveGraph, end_rate: float, inner: np.ndarray, delta: float
         return out
     out, budget = _bridged(out, _joins(out, ends, delta), delta, budget)
     inner = np.r_[inner, np.ones(len(out) - len(inner), dtype=bool)]  # bridges: inside
-    drop = _loose(out, _ends(out, inner), keep, budget)
+    ends = _ends(out, inner)
+    drop = _loose(out, ends, keep, budget)
+    drop |= _stubs(out, ends[~drop[ends]], budget - int(drop[ends].sum()))
     drop[:keep] = False
     return out.select(torch.from_numpy(np.flatnonzero(~drop))) if drop.any() else out

@@ -21,6 +21,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import torch
+from scipy.spatial import cKDTree
 
 from cvt.assignment import assign_positions
 from cvt.curves.edges import assign_edges, expected_degree
@@ -160,7 +161,8 @@ def run_boxed(cx: CurveExemplar, out_box, cfg: CurveConfig, inside: Inside | Non
         out = _run_level(li, state, out, cfg, gen, res, on_iteration)
         res.samples_per_level.append(len(out))
         if li + 1 < len(levels):
-            out = upsample(out, levels[li + 1].delta)
+            out = carry_sources(out, upsample(out, levels[li + 1].delta), res.inputs[li],
+                                res.inputs[li + 1])
     res.graph = out
     res.seconds = time.perf_counter() - t0
     return res
@@ -248,7 +250,7 @@ def _assign(out: CurveGraph, m, s: _Level, cfg: CurveConfig):
     expected degrees (eq. 18). Shape: -> CurveGraph, (N,)."""
     pos = assign_positions(out.pos, m, s.inp.pos, huber=cfg.huber * s.lv.delta)
     pos[: s.n_fixed] = out.pos[: s.n_fixed]
-    out = out.with_(pos=pos, style=_voted_style(out, m, s))
+    out = out.with_(pos=pos, style=_voted_style(out, m, s), source=m.center)
     center = m.center.numpy()
     bare = s.capped[center] & ~near_element(out, CAP_REACH * s.lv.delta) if s.capped.any() \
         else None
@@ -291,3 +293,24 @@ def upsample(out: CurveGraph, delta: float) -> CurveGraph:
     strokes = [Stroke(pos[p.nodes], p.closed, p.style) for p in trace_paths(g)]
     new = stroke_graph(strokes, out.styles, delta) if strokes else CurveGraph.empty(out.styles)
     return new.cat(out.select(torch.nonzero(out.kind >= 0).flatten()))
+
+
+def carry_sources(old: CurveGraph, new: CurveGraph, inp_old: CurveGraph, inp_new: CurveGraph
+                  ) -> CurveGraph:
+    """The finer level starts from the coarser one's matches, not from random guesses: each
+    curve sample of ``new`` takes the input sample of ``inp_new`` nearest to where the source
+    (in ``inp_old``) of its nearest curve sample of ``old`` lies, moved by their offset.
+    Elements start unmatched (-1, a random guess) as before."""
+    src = old.source.numpy()
+    ok = (src >= 0) & (old.kind.numpy() < 0)
+    ok[ok] = inp_old.kind.numpy()[src[ok]] < 0
+    curve_in = np.flatnonzero(inp_new.kind.numpy() < 0)
+    mine = np.flatnonzero(new.kind.numpy() < 0)
+    if not ok.any() or len(curve_in) == 0 or len(mine) == 0:
+        return new
+    at = np.flatnonzero(ok)[cKDTree(old.pos.numpy()[ok]).query(new.pos.numpy()[mine])[1]]
+    where = inp_old.pos.numpy()[src[at]] + new.pos.numpy()[mine] - old.pos.numpy()[at]
+    source = new.source.clone()
+    source[mine] = torch.from_numpy(curve_in[cKDTree(inp_new.pos.numpy()[curve_in])
+                                             .query(where)[1]])
+    return new.with_(source=source)
