@@ -3,6 +3,7 @@
 import math
 
 import numpy as np
+import torch
 
 from cvt.curves.closure import _bridged, bridge, close_ends
 from cvt.curves.graph import StrokeStyle, components
@@ -37,6 +38,10 @@ def test_facing_ends_are_bridged_by_a_smooth_run_of_samples():
     assert (new[:, 0] > 40).all() and (new[:, 0] < 56).all()
     step = np.linalg.norm(np.diff(new, axis=0), axis=1)
     assert step.max() < 1.5 * DELTA  # no long straight edge left for the Bézier to draw
+    near = _graph([[[0, 50], [40, 50]], [[100, 50], [42, 50]]])  # a gap under one delta
+    joined = close_ends(near, 0.0, _inner(near), DELTA)
+    assert _interior_ends(joined) == 0 and len(joined) == len(near)  # one edge, no samples
+    assert joined.style.dtype == torch.long
 
 
 def test_the_bridge_leaves_along_the_end_tangent():

@@ -106,8 +106,9 @@ def _bridged(g: CurveGraph, joins: list[tuple[int, int]], delta: float,
         return g, budget
     k = len(style)
     minus = torch.full((k,), -1, dtype=torch.long)
-    extra = CurveGraph(torch.from_numpy(np.concatenate(pts)), torch.tensor(style), minus,
-                       minus.clone(), torch.ones(k, dtype=torch.float64), minus.clone(),
+    extra = CurveGraph(torch.from_numpy(np.concatenate(pts)),
+                       torch.tensor(style, dtype=torch.long), minus, minus.clone(),
+                       torch.ones(k, dtype=torch.float64), minus.clone(),
                        torch.zeros(0, 2, dtype=torch.long), g.styles)
     out = g.cat(extra)
     return out.with_edges(torch.cat([out.edges, torch.tensor(edges, dtype=torch.long)])), budget
