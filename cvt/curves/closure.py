@@ -26,7 +26,7 @@ import numpy as np
 import torch
 from scipy.spatial import cKDTree
 
-from cvt.curves.ends import _hops, _other_end, _spur, facing_pairs, outward, run_on
+from cvt.curves.ends import facing_pairs, other_end, outward, run_on, spur_chain, within_hops
 from cvt.curves.graph import CurveGraph, components
 
 SCARCE = 0.01  # exemplars with fewer interior ends per curve sample: each end a feature
@@ -45,10 +45,10 @@ def _joins(g: CurveGraph, ends: np.ndarray, delta: float) -> list[tuple[int, int
     pos, nbr, reach = g.pos.numpy(), g.adjacency(), REACH * delta
     away = outward(pos, nbr, ends)
     new = [(a, b) for a, b in facing_pairs(pos, ends, away, reach, ASIDE)
-           if b not in _hops(nbr, a, MIN_LOOP)]
+           if b not in within_hops(nbr, a, MIN_LOOP)]
     done = {v for e in new for v in e}
     for v in ends.tolist():
-        w, n = _other_end(nbr, v)
+        w, n = other_end(nbr, v)
         gap = np.linalg.norm(pos[v] - pos[w])
         if w > v and not {v, w} & done and n > 3 * MIN_LOOP and gap < min(0.5 * n * delta, reach):
             new.append((v, w))
@@ -134,7 +134,7 @@ def _stubs(g: CurveGraph, ends: np.ndarray, budget: int) -> np.ndarray:
     """Samples of the shortest spurs (end -> junction, the junction kept) from ``ends``, at
     most ``budget`` of them (step 4). Shape: -> (N,) bool."""
     nbr = g.adjacency()
-    chains = sorted((c for c in (_spur(nbr, int(v), len(g)) for v in ends) if c), key=len)
+    chains = sorted((c for c in (spur_chain(nbr, int(v), len(g)) for v in ends) if c), key=len)
     drop = np.zeros(len(g), dtype=bool)
     for c in chains[: max(budget, 0)]:
         drop[c] = True

@@ -71,7 +71,7 @@ def facing_pairs(pos: np.ndarray, ends: np.ndarray, away: np.ndarray, reach: flo
     return out
 
 
-def _hops(nbr: list[list[int]], v: int, hops: int) -> set[int]:
+def within_hops(nbr: list[list[int]], v: int, hops: int) -> set[int]:
     """Samples at most ``hops`` edges from ``v``."""
     seen, front = {v}, [v]
     for _ in range(hops):
@@ -87,7 +87,7 @@ def run_on(pos: np.ndarray, nbr: list[list[int]], target: np.ndarray, ends: np.n
     nearby: a T-junction."""
     tree, new = cKDTree(pos), []
     for v, a in zip(ends.tolist(), away, strict=True):
-        own = _hops(nbr, v, 4)
+        own = within_hops(nbr, v, 4)
         best, best_d = None, np.inf
         for c in tree.query_ball_point(pos[v], reach):
             d = pos[c] - pos[v]
@@ -131,7 +131,7 @@ def unwanted_ends(g: CurveGraph, want: np.ndarray) -> np.ndarray:
     return np.flatnonzero((deg == 1) & (g.kind.numpy() < 0) & (want >= WANT_STROKE))
 
 
-def _other_end(nbr: list[list[int]], v: int) -> tuple[int, int]:
+def other_end(nbr: list[list[int]], v: int) -> tuple[int, int]:
     """The far end of the chain of degree-2 samples from end ``v``, and its length in
     samples; (-1, n) when the chain stops at a junction."""
     prev, cur, n = v, nbr[v][0], 2
@@ -148,7 +148,7 @@ def _reclose(pos, nbr, ends, done: set[int], reach: float, shortest: int
     bad = set(ends.tolist()) - done
     new = []
     for v in sorted(bad):
-        w, n = _other_end(nbr, v)
+        w, n = other_end(nbr, v)
         if (w > v and w in bad and n >= shortest
                 and np.linalg.norm(pos[v] - pos[w]) < reach):
             new.append((v, w))
@@ -164,7 +164,7 @@ def side_by_side(g: CurveGraph, deg: np.ndarray, reach: float, min_loop: int = 6
     pos, nbr = g.pos.numpy(), g.adjacency()
     pairs = [(a, b) for a, b in facing_pairs(pos, ends, outward(pos, nbr, ends), reach, -1.01,
                                              g.style.numpy())
-             if b not in _hops(nbr, a, min_loop)]
+             if b not in within_hops(nbr, a, min_loop)]
     return 2 * len(pairs) / len(ends)
 
 
@@ -186,12 +186,12 @@ def close_breaks(g: CurveGraph, want: np.ndarray, reach: float, facing: float = 
     pos, nbr, style = g.pos.numpy(), g.adjacency(), g.style.numpy()
     away = outward(pos, nbr, ends)
     new = [(a, b) for a, b in facing_pairs(pos, ends, away, reach, facing, style)
-           if b not in _hops(nbr, a, min_loop)]
+           if b not in within_hops(nbr, a, min_loop)]
     done = {v for e in new for v in e}
     left = np.array([k for k, v in enumerate(ends) if v not in done], dtype=int)
     if side and len(left) > 1:
         new += [(a, b) for a, b in facing_pairs(pos, ends[left], away[left], reach / 2, -1.01,
-                                                style) if b not in _hops(nbr, a, min_loop)]
+                                                style) if b not in within_hops(nbr, a, min_loop)]
     new += _reclose(pos, nbr, ends, {v for e in new for v in e}, 2 * reach, 3 * min_loop)
     done = {v for e in new for v in e}
     rest = np.array([k for k, v in enumerate(ends) if v not in done], dtype=int)
@@ -203,7 +203,7 @@ def close_breaks(g: CurveGraph, want: np.ndarray, reach: float, facing: float = 
     return g.with_edges(torch.cat([g.edges, torch.tensor(new, dtype=torch.long)]))
 
 
-def _spur(nbr: list[list[int]], v: int, longest: int) -> list[int]:
+def spur_chain(nbr: list[list[int]], v: int, longest: int) -> list[int]:
     """The chain from end ``v`` up to (without) the first junction, if shorter than
     ``longest`` samples; else empty."""
     chain, prev, cur = [v], v, nbr[v][0]
@@ -235,7 +235,7 @@ def drop_broken(g: CurveGraph, want: np.ndarray, longest: int, keep: int = 0,
     drop = ((n_end == 2) & (n_bad >= 1) & (n_bad + n_rim == 2) & (size < short) & ~held)[lab]
     nbr = g.adjacency()
     for v in bad_ends:
-        drop[_spur(nbr, int(v), longest)] = True
+        drop[spur_chain(nbr, int(v), longest)] = True
     drop[:keep] = False
     if not drop.any():
         return g
