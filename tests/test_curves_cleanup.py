@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from cvt.curves.cleanup import drop_fragments, excess_ends, join_ends, repair_ends
+from cvt.curves.cleanup import drop_fragments, excess_ends, join_ends, prune, repair_ends
 from cvt.curves.fairing import chain_neighbors, fair, fair_like, turning
 from cvt.curves.graph import StrokeStyle
 from cvt.curves.sampling import stroke_graph
@@ -193,3 +193,15 @@ def test_short_pad_to_pad_leads_stay_where_the_exemplar_has_pads():
     lead = [[50, 50], [58, 50]]  # 5 samples: smaller than the exemplar's pieces
     assert len(prune(padded([lead]), ex, BOX, BOX, 2.0)) == len(padded([lead]))
     assert int((prune(_graph([lead]), ex, BOX, BOX, 2.0).kind < 0).sum()) == 0  # bare: dust
+
+
+def test_open_pieces_smaller_than_the_exemplars_open_ones_go_closed_dots_stay():
+    dot = [[50 + 3 * math.cos(t), 20 + 3 * math.sin(t)] for t in np.linspace(0, 6.0, 12)]
+    ex = stroke_graph([Stroke(np.array(dot), True, 0),
+                       Stroke(np.array([[10.0, 60], [60, 60]]), False, 0)], STYLE, 2.0)
+    tick = [[20.0, 80], [44, 80]]  # open, 13 samples: more than the dot's 9, under the line's 26
+    out = stroke_graph([Stroke(np.array(dot), True, 0), Stroke(np.array(tick), False, 0),
+                        Stroke(np.array([[10.0, 40], [60, 40]]), False, 0)], STYLE, 2.0)
+    kept = prune(out, ex, BOX, BOX, 2.0)
+    assert _ends(kept) == 2 and len(kept) == len(out) - 13  # the tick went, the dot stayed
+    assert len(prune(out, ex, BOX, BOX, 2.0, keep=len(out))) == len(out)

@@ -28,6 +28,15 @@ def _want(g, value):
     return np.full(len(g), float(value))
 
 
+def test_a_break_between_two_stroke_styles_is_not_closed():
+    two = [StrokeStyle("#000000", 1.0), StrokeStyle("#00aa00", 6.0)]
+    g = stroke_graph([Stroke(np.array([[0.0, 50], [45, 50]]), False, 0),
+                      Stroke(np.array([[51.0, 50], [100, 50]]), False, 1)], two, 2.0)
+    assert len(close_breaks(g, _want(g, 2.0), reach=8.0).edges) == len(g.edges)
+    same = g.with_(style=torch.zeros(len(g), dtype=torch.long))
+    assert len(close_breaks(same, _want(g, 2.0), reach=8.0).edges) == len(g.edges) + 1
+
+
 def test_a_break_inside_a_stroke_is_closed_only_where_the_matches_say_stroke():
     g = _graph([[[0, 50], [45, 50]], [[51, 50], [100, 50]]])  # a 6-unit break
     fixed = close_breaks(g, _want(g, 2.0), reach=8.0)
@@ -138,3 +147,16 @@ def test_ends_on_the_domain_rim_are_not_joined():
     rim[(x > 40) & (x < 56)] = True  # the border runs through the break
     assert len(close_breaks(g, _want(g, 2.0), reach=8.0, rim=rim).edges) == len(g.edges)
     assert len(close_breaks(g, _want(g, 2.0), reach=8.0).edges) == len(g.edges) + 1
+
+
+def test_ends_side_by_side_stay_apart_where_the_exemplar_has_them():
+    from cvt.curves.ends import SIDE_BY_SIDE, side_by_side
+
+    bundle = _graph([[[20, y], [60, y]] for y in (40, 43, 46, 49)])  # parallel hatch strokes
+    assert side_by_side(bundle, bundle.degree().numpy(), 4.0) > SIDE_BY_SIDE
+    apart = _graph([[[20, 20], [60, 20]], [[20, 80], [60, 80]]])
+    assert side_by_side(apart, apart.degree().numpy(), 4.0) == 0.0
+    tip = _graph([[[20, 50], [60, 50]], [[20, 53], [60, 53]]])  # a U-turn that lost its tip
+    want = _want(tip, 2.0)
+    assert len(close_breaks(tip, want, reach=8.0).edges) == len(tip.edges) + 2
+    assert len(close_breaks(tip, want, reach=8.0, side=False).edges) == len(tip.edges)

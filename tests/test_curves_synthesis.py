@@ -123,3 +123,21 @@ def test_coastline_strokes_run_on_instead_of_ending():
         return int(((g.degree() == 1) & inner).sum())
 
     assert ends(FAST) < ends(replace(FAST, grow=0.5, free_reach=4.0))
+
+
+def test_a_finer_level_starts_from_the_coarser_levels_matches():
+    from cvt.curves.graph import StrokeStyle
+    from cvt.curves.sampling import stroke_graph
+    from cvt.curves.strokes import Stroke
+    from cvt.curves.synthesis import carry_sources, upsample
+
+    style = [StrokeStyle("#000000", 1.0)]
+    arc = np.array([[10.0 + t, 50 + 20 * np.sin(t / 15)] for t in np.linspace(0, 80, 60)])
+    inp_old, inp_new = (stroke_graph([Stroke(arc, False, 0)], style, d) for d in (4.0, 2.0))
+    shift = torch.tensor([7.0, -3.0], dtype=torch.float64)
+    old = inp_old.with_(pos=inp_old.pos + shift, source=torch.arange(len(inp_old)))
+    new = carry_sources(old, upsample(old, 2.0), inp_old, inp_new)
+    assert (new.source >= 0).all()
+    err = (inp_new.pos[new.source] + shift - new.pos).norm(dim=1)
+    assert float(err.max()) < 2.0  # each starts on the input sample it copies
+    assert (upsample(old, 2.0).source < 0).all()  # without it: random guesses

@@ -18,6 +18,7 @@ from __future__ import annotations
 import numpy as np
 import torch
 
+from cvt.curves.closure import close_ends
 from cvt.curves.ends import CAP_REACH, capped_ends, facing_pairs, outward, run_on
 from cvt.curves.graph import CurveGraph, components
 
@@ -57,15 +58,31 @@ def specks(g: CurveGraph, box, margin: float) -> np.ndarray:
     return np.where((g.kind.numpy() < 0) & ~touches[lab], size, 0)
 
 
+def open_pieces(g: CurveGraph, box, delta: float) -> np.ndarray:
+    """Samples of components with a stroke end 2 ``delta`` inside ``box``. Shape: (N,) bool."""
+    _, lab = components(len(g), g.edges.numpy())
+    end = (g.degree().numpy() == 1) & (g.kind.numpy() < 0) & _interior(g, box, 2 * delta)
+    return (np.bincount(lab, weights=end.astype(float)) > 0)[lab]
+
+
+def _smallest(size: np.ndarray, where: np.ndarray, default: int) -> int:
+    """The least of ``size`` > 0 at ``where``, else ``default``."""
+    ok = (size > 0) & where
+    return int(size[ok].min()) if ok.any() else default
+
+
 def prune(out: CurveGraph, exemplar: CurveGraph, in_box, out_box, delta: float, keep: int = 0,
           rounds: int = 2) -> CurveGraph:
-    """Remove spurs and specks smaller than the exemplar's. Where the exemplar's stroke ends
-    are capped by discrete elements (a circuit's pads), a small piece with every end capped
-    too is a short lead like the exemplar's, not dust: it stays. The first ``keep`` samples
-    (a user's strokes) always stay."""
+    """Remove spurs and specks smaller than the exemplar's, and pieces with a stroke end
+    smaller than the exemplar's smallest such piece (a tangle of a letter's pen strokes torn
+    off its letter: bigger than the exemplar's dots, which are closed, but open). Where the
+    exemplar's stroke ends are capped by discrete elements (a circuit's pads), a small piece
+    with every end capped too is a short lead like the exemplar's, not dust: it stays. The
+    first ``keep`` samples (a user's strokes) always stay."""
     ex_spur = min((len(c) for c in spurs(exemplar, in_box, 2 * delta)), default=10**9)
     ex_comp = specks(exemplar, in_box, 1.5 * delta)
-    min_comp = int(ex_comp[ex_comp > 0].min()) if (ex_comp > 0).any() else 3
+    min_comp = _smallest(ex_comp, np.ones(len(exemplar), dtype=bool), 3)
+    min_open = _smallest(ex_comp, open_pieces(exemplar, in_box, delta), 0)
     pads = bool(capped_ends(exemplar, CAP_REACH * delta).any())
     for _ in range(rounds):
         drop = np.zeros(len(out), dtype=bool)
@@ -73,7 +90,8 @@ def prune(out: CurveGraph, exemplar: CurveGraph, in_box, out_box, delta: float, 
             if len(chain) < ex_spur:
                 drop[chain] = True
         comp = specks(out, out_box, 1.5 * delta)
-        drop |= (comp > 0) & (comp < min_comp) & ~(_all_capped(out, delta) if pads else drop)
+        small = (comp < min_comp) | ((comp < min_open) & open_pieces(out, out_box, delta))
+        drop |= (comp > 0) & small & ~(_all_capped(out, delta) if pads else drop)
         drop[:keep] = False
         if not drop.any():
             break
@@ -163,6 +181,9 @@ def drop_fragments(out: CurveGraph, exemplar: CurveGraph, in_box, out_box, delta
 def repair_ends(out: CurveGraph, exemplar: CurveGraph, in_box, out_box, delta: float,
                 keep: int = 0) -> CurveGraph:
     """Stroke ends beyond the exemplar's end density: joined where two face each other, else
-    their short broken-off fragments removed."""
+    their short broken-off fragments removed; none left where the exemplar has none
+    (cvt.curves.closure)."""
     out = join_ends(out, exemplar, in_box, out_box, delta)
-    return drop_fragments(out, exemplar, in_box, out_box, delta, keep=keep)
+    out = drop_fragments(out, exemplar, in_box, out_box, delta, keep=keep)
+    return close_ends(out, end_rate(exemplar, in_box, 2 * delta),
+                      _interior(out, out_box, 2 * delta), delta, keep=keep)

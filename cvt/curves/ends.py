@@ -10,7 +10,9 @@ Such *unwanted ends* are resolved with local evidence only (no global target):
 
 1. two unwanted ends facing each other within ``reach`` are joined, nearest pairs first (a
    break closed; a loop whose two ends meet is closed again); two side by side within half
-   ``reach``, whatever their directions, too (the lost tip of a thin U-turn, a peninsula);
+   ``reach``, whatever their directions, too (the lost tip of a thin U-turn, a peninsula) --
+   unless the exemplar itself has ends side by side (``side_by_side``: hatching bundles,
+   a sketch's dashes), where such a pair is a feature;
 2. the two unwanted ends of one open stroke (both ends of a simple path of at least
    ``3 min_loop`` samples) within twice ``reach`` are joined: a closed stroke that the
    synthesis left open is closed again;
@@ -43,9 +45,11 @@ def outward(pos: np.ndarray, nbr: list[list[int]], ends: np.ndarray) -> np.ndarr
 
 
 def facing_pairs(pos: np.ndarray, ends: np.ndarray, away: np.ndarray, reach: float,
-                 facing: float) -> list[tuple[int, int]]:
+                 facing: float, style: np.ndarray | None = None) -> list[tuple[int, int]]:
     """Pairs of ends closer than ``reach`` whose outward directions point at each other
-    within acos(``facing``), nearest first, each end in at most one pair."""
+    within acos(``facing``), nearest first, each end in at most one pair; with ``style``
+    (N,), only ends of one stroke style (a break lies inside one stroke: a thin line that
+    stops at a thick one is not broken)."""
     if len(ends) < 2:
         return []
     pairs = cKDTree(pos[ends]).query_pairs(reach, output_type="ndarray")
@@ -55,6 +59,8 @@ def facing_pairs(pos: np.ndarray, ends: np.ndarray, away: np.ndarray, reach: flo
     dist = np.linalg.norm(d, axis=1).clip(1e-12)
     ok = ((away[pairs[:, 0]] * d).sum(1) / dist > facing) & \
          ((-away[pairs[:, 1]] * d).sum(1) / dist > facing)
+    if style is not None:
+        ok &= style[ends[pairs[:, 0]]] == style[ends[pairs[:, 1]]]
     used: set[int] = set()
     out = []
     for k in np.flatnonzero(ok)[np.argsort(dist[ok], kind="stable")]:
@@ -65,7 +71,7 @@ def facing_pairs(pos: np.ndarray, ends: np.ndarray, away: np.ndarray, reach: flo
     return out
 
 
-def _hops(nbr: list[list[int]], v: int, hops: int) -> set[int]:
+def within_hops(nbr: list[list[int]], v: int, hops: int) -> set[int]:
     """Samples at most ``hops`` edges from ``v``."""
     seen, front = {v}, [v]
     for _ in range(hops):
@@ -81,7 +87,7 @@ def run_on(pos: np.ndarray, nbr: list[list[int]], target: np.ndarray, ends: np.n
     nearby: a T-junction."""
     tree, new = cKDTree(pos), []
     for v, a in zip(ends.tolist(), away, strict=True):
-        own = _hops(nbr, v, 4)
+        own = within_hops(nbr, v, 4)
         best, best_d = None, np.inf
         for c in tree.query_ball_point(pos[v], reach):
             d = pos[c] - pos[v]
@@ -125,7 +131,7 @@ def unwanted_ends(g: CurveGraph, want: np.ndarray) -> np.ndarray:
     return np.flatnonzero((deg == 1) & (g.kind.numpy() < 0) & (want >= WANT_STROKE))
 
 
-def _other_end(nbr: list[list[int]], v: int) -> tuple[int, int]:
+def other_end(nbr: list[list[int]], v: int) -> tuple[int, int]:
     """The far end of the chain of degree-2 samples from end ``v``, and its length in
     samples; (-1, n) when the chain stops at a junction."""
     prev, cur, n = v, nbr[v][0], 2
@@ -142,32 +148,50 @@ def _reclose(pos, nbr, ends, done: set[int], reach: float, shortest: int
     bad = set(ends.tolist()) - done
     new = []
     for v in sorted(bad):
-        w, n = _other_end(nbr, v)
+        w, n = other_end(nbr, v)
         if (w > v and w in bad and n >= shortest
                 and np.linalg.norm(pos[v] - pos[w]) < reach):
             new.append((v, w))
     return new
 
 
+def side_by_side(g: CurveGraph, deg: np.ndarray, reach: float, min_loop: int = 6) -> float:
+    """Share of the curve ends (``deg`` (N,) == 1) that pair with another end of their
+    style within ``reach``, whatever their directions (ends side by side)."""
+    ends = np.flatnonzero((deg == 1) & (g.kind.numpy() < 0))
+    if len(ends) < 2:
+        return 0.0
+    pos, nbr = g.pos.numpy(), g.adjacency()
+    pairs = [(a, b) for a, b in facing_pairs(pos, ends, outward(pos, nbr, ends), reach, -1.01,
+                                             g.style.numpy())
+             if b not in within_hops(nbr, a, min_loop)]
+    return 2 * len(pairs) / len(ends)
+
+
+SIDE_BY_SIDE = 0.3  # exemplars with this share of ends side by side keep such pairs apart
+
+
 def close_breaks(g: CurveGraph, want: np.ndarray, reach: float, facing: float = 0.3,
-                 min_loop: int = 6, rim: np.ndarray | None = None) -> CurveGraph:
+                 min_loop: int = 6, rim: np.ndarray | None = None,
+                 side: bool = True) -> CurveGraph:
     """Steps 1 to 3 above. ``want`` (N,): eq. 18 expected degrees. Two ends of one stroke
     are only joined when ``min_loop`` or more edges apart (no tiny loops). Ends on the
-    ``rim`` (N,) bool (the domain border, which cuts strokes) are left as they are."""
+    ``rim`` (N,) bool (the domain border, which cuts strokes) are left as they are; ``side``:
+    whether ends side by side are joined too."""
     ends = unwanted_ends(g, want)
     if rim is not None:
         ends = ends[~rim[ends]]
     if len(ends) == 0:
         return g
-    pos, nbr = g.pos.numpy(), g.adjacency()
+    pos, nbr, style = g.pos.numpy(), g.adjacency(), g.style.numpy()
     away = outward(pos, nbr, ends)
-    new = [(a, b) for a, b in facing_pairs(pos, ends, away, reach, facing)
-           if b not in _hops(nbr, a, min_loop)]
+    new = [(a, b) for a, b in facing_pairs(pos, ends, away, reach, facing, style)
+           if b not in within_hops(nbr, a, min_loop)]
     done = {v for e in new for v in e}
     left = np.array([k for k, v in enumerate(ends) if v not in done], dtype=int)
-    if len(left) > 1:
-        new += [(a, b) for a, b in facing_pairs(pos, ends[left], away[left], reach / 2, -1.01)
-                if b not in _hops(nbr, a, min_loop)]
+    if side and len(left) > 1:
+        new += [(a, b) for a, b in facing_pairs(pos, ends[left], away[left], reach / 2, -1.01,
+                                                style) if b not in within_hops(nbr, a, min_loop)]
     new += _reclose(pos, nbr, ends, {v for e in new for v in e}, 2 * reach, 3 * min_loop)
     done = {v for e in new for v in e}
     rest = np.array([k for k, v in enumerate(ends) if v not in done], dtype=int)
@@ -179,7 +203,7 @@ def close_breaks(g: CurveGraph, want: np.ndarray, reach: float, facing: float = 
     return g.with_edges(torch.cat([g.edges, torch.tensor(new, dtype=torch.long)]))
 
 
-def _spur(nbr: list[list[int]], v: int, longest: int) -> list[int]:
+def spur_chain(nbr: list[list[int]], v: int, longest: int) -> list[int]:
     """The chain from end ``v`` up to (without) the first junction, if shorter than
     ``longest`` samples; else empty."""
     chain, prev, cur = [v], v, nbr[v][0]
@@ -211,7 +235,7 @@ def drop_broken(g: CurveGraph, want: np.ndarray, longest: int, keep: int = 0,
     drop = ((n_end == 2) & (n_bad >= 1) & (n_bad + n_rim == 2) & (size < short) & ~held)[lab]
     nbr = g.adjacency()
     for v in bad_ends:
-        drop[_spur(nbr, int(v), longest)] = True
+        drop[spur_chain(nbr, int(v), longest)] = True
     drop[:keep] = False
     if not drop.any():
         return g

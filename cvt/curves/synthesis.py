@@ -21,16 +21,19 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import torch
+from scipy.spatial import cKDTree
 
 from cvt.assignment import assign_positions
 from cvt.curves.edges import assign_edges, expected_degree
 from cvt.curves.ends import (
     CAP_REACH,
+    SIDE_BY_SIDE,
     capped_ends,
     close_breaks,
     drop_broken,
     end_evidence,
     near_element,
+    side_by_side,
     unwanted_ends,
 )
 from cvt.curves.existence import existence, missing_samples
@@ -110,6 +113,7 @@ class _Level:
     fixed_edges: torch.Tensor
     capped: np.ndarray  # (N_in,) bool: input ends with a discrete element at them
     deg_in: torch.Tensor  # (N_in,) input degrees, ends cut by the exemplar's canvas as 2
+    side: bool  # join unwanted ends side by side (the exemplar has few such ends itself)
 
     @property
     def end_free(self) -> bool:
@@ -157,7 +161,8 @@ def run_boxed(cx: CurveExemplar, out_box, cfg: CurveConfig, inside: Inside | Non
         out = _run_level(li, state, out, cfg, gen, res, on_iteration)
         res.samples_per_level.append(len(out))
         if li + 1 < len(levels):
-            out = upsample(out, levels[li + 1].delta)
+            out = carry_sources(out, upsample(out, levels[li + 1].delta), res.inputs[li],
+                                res.inputs[li + 1])
     res.graph = out
     res.seconds = time.perf_counter() - t0
     return res
@@ -167,8 +172,10 @@ def _level_state(lv, inp, cx, cfg, domain, fixed) -> _Level:
     index = _input_index(inp, cx.box, lv, cfg)
     n_fixed = 0 if fixed is None else len(fixed)
     keep = torch.zeros(0, 2, dtype=torch.long) if fixed is None else fixed.edges
+    deg = run_on_degree(inp, cx.box, lv.delta)
+    side = side_by_side(inp, deg.numpy(), cfg.end_reach / 2 * lv.delta) < SIDE_BY_SIDE
     return _Level(lv, inp, edge_embedding(inp), index, domain, n_fixed, keep,
-                  capped_ends(inp, CAP_REACH * lv.delta), run_on_degree(inp, cx.box, lv.delta))
+                  capped_ends(inp, CAP_REACH * lv.delta), deg, side)
 
 
 def run_on_degree(inp: CurveGraph, box, delta: float) -> torch.Tensor:
@@ -243,7 +250,7 @@ def _assign(out: CurveGraph, m, s: _Level, cfg: CurveConfig):
     expected degrees (eq. 18). Shape: -> CurveGraph, (N,)."""
     pos = assign_positions(out.pos, m, s.inp.pos, huber=cfg.huber * s.lv.delta)
     pos[: s.n_fixed] = out.pos[: s.n_fixed]
-    out = out.with_(pos=pos, style=_voted_style(out, m, s))
+    out = out.with_(pos=pos, style=_voted_style(out, m, s), source=m.center)
     center = m.center.numpy()
     bare = s.capped[center] & ~near_element(out, CAP_REACH * s.lv.delta) if s.capped.any() \
         else None
@@ -254,9 +261,9 @@ def _assign(out: CurveGraph, m, s: _Level, cfg: CurveConfig):
     out = out.with_(edges=assign_edges(m, out, s.inp, cfg.reach * s.lv.delta,
                                        keep=s.fixed_edges))
     if not s.end_free:
-        return close_breaks(out, want, cfg.end_reach * s.lv.delta), want
+        return close_breaks(out, want, cfg.end_reach * s.lv.delta, side=s.side), want
     rim = _rim(out.pos, s.inside, 2 * s.lv.delta)  # the farther joins stay off the border
-    return close_breaks(out, want, cfg.free_reach * s.lv.delta, rim=rim), want
+    return close_breaks(out, want, cfg.free_reach * s.lv.delta, rim=rim, side=s.side), want
 
 
 def _voted_style(out: CurveGraph, m, s: _Level) -> torch.Tensor:
@@ -286,3 +293,24 @@ def upsample(out: CurveGraph, delta: float) -> CurveGraph:
     strokes = [Stroke(pos[p.nodes], p.closed, p.style) for p in trace_paths(g)]
     new = stroke_graph(strokes, out.styles, delta) if strokes else CurveGraph.empty(out.styles)
     return new.cat(out.select(torch.nonzero(out.kind >= 0).flatten()))
+
+
+def carry_sources(old: CurveGraph, new: CurveGraph, inp_old: CurveGraph, inp_new: CurveGraph
+                  ) -> CurveGraph:
+    """The finer level starts from the coarser one's matches, not from random guesses: each
+    curve sample of ``new`` takes the input sample of ``inp_new`` nearest to where the source
+    (in ``inp_old``) of its nearest curve sample of ``old`` lies, moved by their offset.
+    Elements start unmatched (-1, a random guess) as before."""
+    src = old.source.numpy()
+    ok = (src >= 0) & (old.kind.numpy() < 0)
+    ok[ok] = inp_old.kind.numpy()[src[ok]] < 0
+    curve_in = np.flatnonzero(inp_new.kind.numpy() < 0)
+    mine = np.flatnonzero(new.kind.numpy() < 0)
+    if not ok.any() or len(curve_in) == 0 or len(mine) == 0:
+        return new
+    at = np.flatnonzero(ok)[cKDTree(old.pos.numpy()[ok]).query(new.pos.numpy()[mine])[1]]
+    where = inp_old.pos.numpy()[src[at]] + new.pos.numpy()[mine] - old.pos.numpy()[at]
+    source = new.source.clone()
+    source[mine] = torch.from_numpy(curve_in[cKDTree(inp_new.pos.numpy()[curve_in])
+                                             .query(where)[1]])
+    return new.with_(source=source)
