@@ -117,10 +117,9 @@ def compatible(shapes: ElementShapes, outline: Outlines, size_ratio: float = SIZ
     pixels of it (a large element's outline misses by many pixels where a small one's
     misses by one: the leaves of a tiled pattern, the strips of bark), covering FIT of p's
     area and of its own (:func:`neuraltex.element_outline.cover`: a brick and a half never
-    takes a brick's place), and with
-    ``ground`` (E, 3; :func:`ground_colours`) both with a ground of colours within GROUND
-    of each other, or both without (a coin from the photograph's dark corner would arrive
-    with its dark margin on a lighter ground)."""
+    takes a brick's place), and with ``ground`` (E, 3; :func:`ground_colours`) both with a
+    ground of colours within GROUND of each other, or both without (a coin from the
+    photograph's dark corner would arrive with its dark margin on a lighter ground)."""
     E = len(shapes.area)
     area = np.maximum(shapes.area, 1)
     ok = ((shapes.sides[:, None] == shapes.sides[None])
@@ -158,11 +157,8 @@ def fitting_permutation(shapes: ElementShapes, place: np.ndarray, seed: int | No
         outline = outlines(place, shapes.centre, shapes.cov)
     ok = compatible(shapes, outline, size_ratio, max_stretch, ground)
     rng = np.random.default_rng(seed)
-    cost = np.where(ok, rng.random(ok.shape), np.inf)
-    np.fill_diagonal(cost, 2.0)
-    if np.isinf(cost).all(1).any():  # never: the diagonal is finite
-        raise AssertionError("no assignment")
-    cost[np.isinf(cost)] = 1e6
+    cost = np.where(ok, rng.random(ok.shape), 1e6)  # incompatible: never chosen
+    np.fill_diagonal(cost, 2.0)                      # staying: only without a partner
     _, target = linear_sum_assignment(cost)
     return target.astype(np.int64)
 
