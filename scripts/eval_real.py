@@ -15,11 +15,14 @@ computed here on the same images:
   |reshuffle - reconstruction| per pixel and channel (a reshuffle that changes nothing would
   score 0 and match the reconstruction's SWD);
 - init: with ``--init-compare N``, the first N images are also tuned from a randomly
-  initialized model for the same seconds (does the pretrained model earn its place?).
+  initialized model for the same seconds (does the pretrained model earn its place?); with
+  ``--init-chain M`` also from the shipped G first tuned, in the fit's own regime, on M
+  procedural textures of a training seed in turn (a start pretrained the way it is used).
 
     python scripts/eval_real.py                      # 25 real textures, default fit budget
     python scripts/eval_real.py --seconds 20 --limit 5 --init-compare 3
     python scripts/eval_real.py --steps 300 --init-compare 3 --init-only
+    python scripts/eval_real.py --steps 300 --init-compare 3 --init-chain 4 --init-only
     python scripts/eval_real.py --procedural 10      # procedural benchmark images too
 
 Prints one row per image and the means; ``--out FILE.md`` also writes the table.
@@ -202,6 +205,9 @@ def main() -> None:
     ap.add_argument("--procedural", type=int, default=0, help="also N procedural images")
     ap.add_argument("--init-compare", type=int, default=0,
                     help="tune the first N images from random weights too, same budget")
+    ap.add_argument("--init-chain", type=int, default=0,
+                    help="with --init-compare: also start from the shipped G tuned on this "
+                    "many procedural textures (training seed) in turn, same budget each")
     ap.add_argument("--init-only", action="store_true",
                     help="only the --init-compare runs (no table)")
     ap.add_argument("--threads", type=int, default=1, help="torch threads (default 1)")
@@ -217,7 +223,7 @@ def main() -> None:
     images = [(p.stem, load_image(p)) for p in sorted(REAL.glob("*.png"))][:args.limit]
     images += procedural_images(args.procedural)
     if args.init_only:
-        print("\n".join(init_compare(images[:args.init_compare], settings)))
+        print("\n".join(init_compare(images[:args.init_compare], settings, args.init_chain)))
         return
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
@@ -237,21 +243,22 @@ def main() -> None:
                   flush=True)
         real = [(n, r) for n, r in rows if not n.startswith("procedural_")]
         text = table(rows) + "\n\n" + "\n".join(f"- {s}" for s in summary(real or rows))
-        init = init_compare(images[:args.init_compare], settings)
+        init = init_compare(images[:args.init_compare], settings, args.init_chain)
         text += "".join(f"\n- {s}" for s in init)
     print(text)
     if args.out:
         args.out.write_text(text + "\n")
 
 
-def init_compare(images, settings: FitSettings) -> list[str]:
+def init_compare(images, settings: FitSettings, chain: int = 0) -> list[str]:
     """Pretrained vs random initialization at the same budget, on ``images``: the final PSNRs
     and how soon each start reaches the other's final PSNR of G alone (the tuning's climb,
     read every ``eval_every`` steps; the target: the shipped start wins by 2 dB or gets
-    there 2x sooner)."""
+    there 2x sooner). With ``chain``, a third start: :func:`chained_model`."""
     if not images:
         return []
     pre, rnd = load_model(DEFAULT_MODEL), build_model(load_model(DEFAULT_MODEL).config).eval()
+    chained = chained_model(pre, chain, settings) if chain else None
     out = []
     for name, image in images:
         (a, ca), (b, cb) = (_climb(m, image, settings) for m in (pre, rnd))
@@ -260,6 +267,30 @@ def init_compare(images, settings: FitSettings) -> list[str]:
                    f"them ({a.steps} / {b.steps} steps); random's final level: "
                    f"{_sooner(ca, cb, b.plain_psnr)}; pretrained's final level: "
                    f"{_sooner(ca, cb, a.plain_psnr)}")
+        if chained is not None:
+            c, cc = _climb(chained, image, settings)
+            out.append(f"init {name}: chained ({chain} procedural) {cc[0][2]:.2f} -> "
+                       f"{c.plain_psnr:.2f} dB before sprites (pretrained {ca[0][2]:.2f} -> "
+                       f"{a.plain_psnr:.2f}, random {cb[0][2]:.2f} -> {b.plain_psnr:.2f}); "
+                       f"random's final level: chained vs random {_sooner(cc, cb, b.plain_psnr)}")
+    return out
+
+
+def chained_model(model, count: int, settings: FitSettings):
+    """A copy of ``model`` whose G was tuned by ``fit_texture`` (its own regime: segments,
+    colour offsets, crops) on ``count`` 256 px procedural textures of training seed 0 in
+    turn, each with ``settings``' budget."""
+    import copy
+
+    from neuraltex.data.generator import generate
+
+    out = copy.deepcopy(model)
+    for i in range(count):
+        image = torch.from_numpy(generate(i, 0, 256).image).permute(2, 0, 1).contiguous()
+        fit = fit_texture(out, image, replace(settings, detail=0))
+        with torch.no_grad():
+            for name, p in out.generator.named_parameters():
+                p.copy_(fit.generator[name])
     return out
 
 
