@@ -54,6 +54,7 @@ ELONGATION = 1.3  # largest ratio of the elongations of two elements that trade 
 TURN = 30.0     # largest turn (degrees) of an elongated element onto its place
 GROUND = 0.08   # largest difference (RGB, per channel) of two elements' grounds
 RING_PIXELS = 8  # fewest margin pixels that make a ground
+CHECKS = 4      # assignments solved again after pairs failed on the pixels
 
 
 def place_map(src: np.ndarray, dst: np.ndarray, round_: bool) -> np.ndarray:
@@ -144,13 +145,16 @@ def compatible(shapes: ElementShapes, outline: Outlines, size_ratio: float = SIZ
 
 def fitting_permutation(shapes: ElementShapes, place: np.ndarray, seed: int | None,
                         size_ratio: float = SIZE_RATIO, max_stretch: float = STRETCH,
-                        outline: Outlines | None = None, ground: np.ndarray | None = None
-                        ) -> np.ndarray:
+                        outline: Outlines | None = None, ground: np.ndarray | None = None,
+                        where: np.ndarray | None = None) -> np.ndarray:
     """(E,) int64: the place each element takes — a random permutation in which every
     element that has a :func:`compatible` partner is moved if it can be: the assignment of
     least total cost, uniform random costs on compatible pairs and a cost above any of them
-    for staying. place (H, W): element whose footprint each pixel is (:func:`footprints`).
-    Deterministic per seed."""
+    for staying. With ``where`` (H, W; element of each pixel) every pair the assignment
+    picks is also checked on the pixels (:func:`overlap` at least FIT: the outlines are
+    smoothed) and a failing pair is forbidden and the assignment solved again, CHECKS times
+    at most; a cycle that still holds a failing pair then stays. place (H, W): element whose
+    footprint each pixel is (:func:`footprints`). Deterministic per seed."""
     from scipy.optimize import linear_sum_assignment
 
     if outline is None:
@@ -159,8 +163,54 @@ def fitting_permutation(shapes: ElementShapes, place: np.ndarray, seed: int | No
     rng = np.random.default_rng(seed)
     cost = np.where(ok, rng.random(ok.shape), 1e6)  # incompatible: never chosen
     np.fill_diagonal(cost, 2.0)                      # staying: only without a partner
-    _, target = linear_sum_assignment(cost)
-    return target.astype(np.int64)
+    pixels = None if where is None else element_pixels(where, len(cost))
+    for _ in range(CHECKS):
+        target = linear_sum_assignment(cost)[1].astype(np.int64)
+        bad = [] if pixels is None else [
+            e for e in np.nonzero(target != np.arange(len(target)))[0]
+            if overlap(shapes, where, pixels, e, target[e]) < FIT]
+        if not bad:
+            return target
+        cost[bad, target[bad]] = 1e6
+    seen = target == np.arange(len(target))
+    for start in np.nonzero(~seen)[0]:
+        if seen[start]:
+            continue
+        cycle, e = [], start
+        while not seen[e]:
+            seen[e] = True
+            cycle.append(e)
+            e = target[e]
+        if any(cost[a, target[a]] >= 1e6 for a in cycle):
+            target[cycle] = cycle
+    return target
+
+
+def element_pixels(where: np.ndarray, count: int) -> list[np.ndarray]:
+    """(n_e, 2) x, y of the pixels of each of ``count`` elements in ``where`` (H, W)."""
+    order = np.argsort(where.ravel(), kind="stable")  # pixels grouped by element
+    starts = np.searchsorted(where.ravel()[order], np.arange(count + 1))
+    return [np.stack(np.divmod(order[a:b], where.shape[1])[::-1], 1)
+            for a, b in zip(starts[:-1], starts[1:], strict=True)]
+
+
+def overlap(shapes: ElementShapes, where: np.ndarray, pixels: list[np.ndarray], e: int,
+            p: int) -> float:
+    """How well element e fits the place of element p, on the pixels: the smaller of the
+    share of p's pixels that e covers, mapped onto p (:func:`place_map`), and the share of
+    e's pixels that land on p's. where (H, W): element of each pixel; pixels: (n, 2) x, y
+    of each element's pixels."""
+    round_ = max(shapes.elongation[e], shapes.elongation[p]) < ROUND
+    A = place_map(shapes.cov[e], shapes.cov[p], round_)
+    shares = []
+    for a, b, M in ((p, e, np.linalg.inv(A)), (e, p, A)):
+        q = shapes.centre[b] + (pixels[a] - shapes.centre[a]) @ M.T
+        qx, qy = np.rint(q[:, 0]).astype(np.int64), np.rint(q[:, 1]).astype(np.int64)
+        inside = (qx >= 0) & (qx < where.shape[1]) & (qy >= 0) & (qy < where.shape[0])
+        hit = np.zeros(len(qx), bool)
+        hit[inside] = where[qy[inside], qx[inside]] == b
+        shares.append(hit.mean() if len(hit) else 0.0)
+    return float(min(shares))
 
 
 def swap_elements(image: Tensor, labels: np.ndarray, groups: np.ndarray, *,
@@ -226,7 +276,8 @@ def plan(image: Tensor, labels: np.ndarray, groups: np.ndarray, seed: int | None
     outline = outlines(place, shapes.centre, shapes.cov)
     ground = ground_colours(image, place, where, shapes.background)
     return shapes, place, outline, fitting_permutation(shapes, place, seed, size_ratio,
-                                                       outline=outline, ground=ground)
+                                                       outline=outline, ground=ground,
+                                                       where=where)
 
 
 def blur(mask: Tensor, sigma: float) -> Tensor:

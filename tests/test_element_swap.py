@@ -202,3 +202,22 @@ def test_a_mosaic_of_compact_textons_is_parted_and_coins_and_rings_stay_whole():
     assert len(set(out[:4])) == 4                                    # the squares parted
     assert len(set(out[4:8])) == 1 and len(set(out[8:12])) == 1      # coin, ring whole
     assert out[4] != out[8] and out[12] not in out[:12]
+
+
+def test_pairs_the_smoothed_outlines_pass_are_checked_on_the_pixels():
+    """A disc and a disc with a slot cut to its centre: their outlines (4 harmonics) agree,
+    but carried onto each other they cover under 0.8 of each other's pixels, so with the
+    element map at hand the assignment leaves them where they are."""
+    from neuraltex.element_outline import outlines
+    from neuraltex.element_swap import compatible, fitting_permutation
+    from neuraltex.texton_elements import element_shapes
+
+    yy, xx = np.mgrid[0:48, 0:96].astype(float)
+    where = np.zeros((48, 96), np.int64)
+    where[(xx - 24) ** 2 + (yy - 24) ** 2 <= 100] = 1
+    where[((xx - 72) ** 2 + (yy - 24) ** 2 <= 100) & ~((np.abs(yy - 24) <= 2) & (xx > 70))] = 2
+    shapes = element_shapes(where, np.arange(3))
+    place = np.where(where > 0, where, -1)
+    assert compatible(shapes, outlines(place, shapes.centre, shapes.cov), 1.3)[1, 2]
+    assert list(fitting_permutation(shapes, place, 0, 1.3)) == [0, 2, 1]
+    assert list(fitting_permutation(shapes, place, 0, 1.3, where=where)) == [0, 1, 2]
