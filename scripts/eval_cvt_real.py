@@ -116,6 +116,8 @@ def _seam_images(path: Path, ex, size, args, root: Path, tmp: str, first: Path) 
             key = f"{args.method}{extra}".replace(" ", "").replace("/", "_")
             svg = cache / f"{path.stem}-{key}-{seed}.svg"
             if seed == args.seed and extra == args.extra:
+                if args.seam_cache:  # kept beside the others (scripts/eval_cvt_wrap.py)
+                    svg.write_text(first.read_text())
                 svg = first
             elif not svg.exists():
                 synthesize(path, svg, args.scale, seed, args.method, extra, root)
