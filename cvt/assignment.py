@@ -126,11 +126,7 @@ def add_missing(out: Samples, m: Matches, inp: Samples, in_nbr: torch.Tensor, de
         p = torus.wrap(p)
     if p.shape[0] == 0:
         return out.select(torch.zeros(0, dtype=torch.long))
-    cell = torch.floor(p / delta).long()  # (V, 2) votes landing in one cell are one place
-    key = (cell[:, 0] - cell[:, 0].min()) * (int(cell[:, 1].max() - cell[:, 1].min()) + 1) + (
-        cell[:, 1] - cell[:, 1].min())
-    uniq, inv, n_votes = torch.unique(key, return_inverse=True, return_counts=True)
-    place = torch.zeros(len(uniq), 2, dtype=p.dtype).index_add_(0, inv, p) / n_votes[:, None]
+    uniq, inv, place, first_vote = _places(p, delta, torus)
     # seed 001 eq. 16 counts neighborhoods, so a neighborhood voting twice for one place counts once
     voter = torch.unique(inv * len(out) + s_o)  # distinct (place, voting center) pairs
     counts = torch.bincount(voter // len(out), minlength=len(uniq))
@@ -143,13 +139,11 @@ def add_missing(out: Samples, m: Matches, inp: Samples, in_nbr: torch.Tensor, de
     keep = (xi > threshold) & (near.min(1).values >= min_gap * delta)
     keep_idx = torch.nonzero(keep).flatten()
     keep_idx = keep_idx[torch.argsort(xi[keep_idx], descending=True, stable=True)]
-    chosen = _spaced(place[keep_idx].tolist(), min_gap * delta)
+    chosen = _spaced(place[keep_idx].tolist(), min_gap * delta, torus)
     chosen = [int(keep_idx[c]) for c in chosen]
     chosen_pos = [place[c] for c in chosen]
     if not chosen:
         return out.select(torch.zeros(0, dtype=torch.long))
-    first_vote = torch.full((len(uniq),), -1, dtype=torch.long)
-    first_vote.scatter_reduce_(0, inv, torch.arange(len(inv)), reduce="amin", include_self=False)
     v = first_vote[torch.tensor(chosen)]  # (A,) one representative vote per new sample
     cluster = _new_cluster_ids(out, m, inp, s_i[v], s_o[v], 2 * delta, torus)
     # A fresh cluster must bring at least ``min_new`` of its input element's samples at once:
@@ -171,15 +165,53 @@ def add_missing(out: Samples, m: Matches, inp: Samples, in_nbr: torch.Tensor, de
                    s_i[v])
 
 
-def _spaced(points: list[list[float]], gap: float) -> list[int]:
-    """Greedy in order: indices of points kept at least ``gap`` apart (grid hash, cell = gap)."""
+def _places(p: torch.Tensor, delta: float, torus: Torus | None):
+    """Votes landing in one cell (side ``delta``) are one place, at their mean. On a
+    ``torus`` (votes on the canvas) the cells tile the period: side period / floor(period /
+    delta), where cells of side ``delta`` from the origin left a sliver of a cell at the seam
+    that caught a fraction of the votes of the places it cut. Shape: p (V, 2) -> uniq (U,),
+    inv (V,), place (U, 2), first_vote (U,)."""
+    if torus is None:
+        cell = torch.floor(p / delta).long()  # (V, 2)
+    else:
+        n = torch.clamp(torch.floor(p.new_tensor(torus.period) / delta), min=1)  # (2,)
+        side = p.new_tensor(torus.period) / n
+        cell = (torch.floor((p - p.new_tensor(torus.origin)) / side) % n).long()
+    key = (cell[:, 0] - cell[:, 0].min()) * (int(cell[:, 1].max() - cell[:, 1].min()) + 1) + (
+        cell[:, 1] - cell[:, 1].min())
+    uniq, inv, n_votes = torch.unique(key, return_inverse=True, return_counts=True)
+    place = torch.zeros(len(uniq), 2, dtype=p.dtype).index_add_(0, inv, p) / n_votes[:, None]
+    first_vote = torch.full((len(uniq),), -1, dtype=torch.long)
+    first_vote.scatter_reduce_(0, inv, torch.arange(len(inv)), reduce="amin", include_self=False)
+    return uniq, inv, place, first_vote
+
+
+def _spaced(points: list[list[float]], gap: float, torus: Torus | None = None) -> list[int]:
+    """Greedy in order: indices of points kept at least ``gap`` apart (grid hash, cells of
+    side >= gap); on a ``torus`` (points on the canvas) by the minimum image and with the
+    cells wrapping around, so two points across the seam are close too."""
+    origin, period = (0.0, 0.0), (None, None)
+    if torus is not None:
+        origin, period = torus.origin, torus.period
+    n = [None if q is None else max(1, int(q // gap)) for q in period]  # cells per period
+    side = [gap if q is None else q / c for q, c in zip(period, n, strict=True)]
+
+    def cell(v: float, a: int) -> int:
+        c = int((v - origin[a]) // side[a])
+        return c if n[a] is None else c % n[a]
+
+    def close(d: tuple[float, float]) -> bool:
+        d = [x if q is None else x - q * round(x / q) for x, q in zip(d, period, strict=True)]
+        return d[0] ** 2 + d[1] ** 2 < gap * gap
+
     grid: dict[tuple[int, int], list[tuple[float, float]]] = {}
     kept = []
     for k, (x, y) in enumerate(points):
-        ci, cj = int(x // gap), int(y // gap)
-        near = (q for di in (-1, 0, 1) for dj in (-1, 0, 1)
-                for q in grid.get((ci + di, cj + dj), ()))
-        if any((qx - x) ** 2 + (qy - y) ** 2 < gap * gap for qx, qy in near):
+        ci, cj = cell(x, 0), cell(y, 1)
+        cells = {(ci + di if n[0] is None else (ci + di) % n[0],
+                  cj + dj if n[1] is None else (cj + dj) % n[1])
+                 for di in (-1, 0, 1) for dj in (-1, 0, 1)}
+        if any(close((qx - x, qy - y)) for c in cells for qx, qy in grid.get(c, ())):
             continue
         grid.setdefault((ci, cj), []).append((x, y))
         kept.append(k)

@@ -97,8 +97,13 @@ def main() -> None:
     ap.add_argument("--only", default="", help="--real: only files whose name contains this")
     ap.add_argument("--method", default="full", help="--real: cvt synthesize --method")
     ap.add_argument("--extra", default="", help="--real: more cvt synthesize arguments")
-    ap.add_argument("--seam-seeds", type=int, default=3,
-                    help="--real with --extra=--tileable: seeds the seam measure pools")
+    ap.add_argument("--seam-seeds", type=int, default=6,
+                    help="--real with --extra=--tileable: seeds the seam measure pools "
+                         "(default 6)")
+    ap.add_argument("--seam-cache", default="",
+                    help="--real with --extra=--tileable: keep the outputs of the seam seeds "
+                         "after the first in this folder and reuse them on the next run "
+                         "(the judged seed is always synthesized and timed)")
     ap.add_argument("--periodic", action="store_true",
                     help="--real: only the seam measure of the lattice exemplars' own tiles")
     args = ap.parse_args()

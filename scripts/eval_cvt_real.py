@@ -3,9 +3,11 @@
 output SVG against R1 (random placement) and R2 (2 x 2 tiling) with cvt.judge.
 
 Seams (cvt.seam): each output tiled 2 x 2, patch SWD across the seam lines against interior
-lines. With --tileable the seam is pooled over --seam-seeds seeds, and the plain outputs of
-the same seeds (no --tileable) are measured beside it: the estimator must separate them. The
-exemplars' own tiles of the lattice patterns (exactly periodic) must read about 1."""
+lines. With --tileable the seam is pooled over --seam-seeds seeds and tested against its null
+(the same tiles rolled: no seam by construction; cvt.seam.seam_test), and the plain outputs of
+the same seeds (no --tileable, real seams) are measured and tested beside it: the test must
+flag them and leave the rolled tiles alone. The exemplars' own tiles of the lattice patterns
+(exactly periodic) must read about 1."""
 
 from __future__ import annotations
 
@@ -21,7 +23,15 @@ from pathlib import Path
 import numpy as np
 
 from cvt.judge import PASS_METRICS, PIXELS, judge
-from cvt.seam import rolled_ratios, seam_ratio, seam_step
+from cvt.seam import (
+    LEVEL,
+    detectable,
+    rolled_ratios,
+    seam_ratio,
+    seam_step,
+    seam_test,
+    tile_lines,
+)
 from cvt.svg import load_svg
 from neuraltex.fileio import write_text_atomic
 
@@ -59,27 +69,31 @@ def _render(svg: str, size, ex, width: int | None = None):
 
 def _seam_line(name: str, images: list, plain: list, r: dict) -> str:
     """Seam measures of outputs tiled 2 x 2: the patch-SWD ratio (cvt.seam) pooled over the
-    tiles ``images`` (for a --tileable run ``r["seam"]`` gets it: the target is <= 1.1), the
-    same of the tile cut through its middle (interior lines as a seam: the estimator's own
-    spread), of the ``plain`` outputs if any, and the colour step (cvt.seam.seam_step)."""
+    tiles ``images`` (``r["seam"]``: the target is <= 1.1) and the colour step
+    (cvt.seam.seam_step); for a --tileable run (``plain``: the plain outputs of the same
+    seeds) also the ratio's null (the same tiles rolled, no seam by construction), the seam
+    test (p-value of "more than 1.1 x the interior") and the same of the plain outputs."""
     seam, inner = seam_ratio(images)
-    mid, mid_inner = seam_ratio([np.roll(x, (x.shape[0] // 2, x.shape[1] // 2), (0, 1))
-                                 for x in images])
     r["seam"] = seam / inner
     step, near = np.sum([seam_step(x) for x in images], axis=0)
     line = (f"- {name}: patch SWD across the seam {seam:.3f}, across interior lines "
-            f"{inner:.3f}, ratio {seam / inner:.2f} (mid-lines as a seam: {mid / mid_inner:.2f}")
-    if plain:  # tiles: where the seam falls among the same tiles rolled (no seam there)
-        null = r["null"] = rolled_ratios(images)
-        line += (f"; tiles rolled, no seam by construction: 5-95 % "
-                 f"{np.quantile(null, 0.05):.2f}-{np.quantile(null, 0.95):.2f}, <= 1.1 in "
-                 f"{np.mean(null <= 1.1):.0%}; the seam above {np.mean(null < seam / inner):.0%} "
-                 f"of them")
-    line += ")"
+            f"{inner:.3f}, ratio {seam / inner:.2f}")
     if plain:
+        lines = tile_lines(images)
+        null = r["null"] = rolled_ratios(images, lines=lines)
+        r["seam_p"] = seam_test(seam / inner, null)
+        r["alarms"] = np.mean([seam_test(x, null) < 1 - LEVEL
+                               for x in rolled_ratios(images, seed=1, lines=lines)])
+        r["detect"] = detectable(null)
         p_seam, p_inner = seam_ratio(plain)
         r["plain_seam"] = p_seam / p_inner
-        line += f"; plain outputs: ratio {p_seam / p_inner:.2f}"
+        r["plain_p"] = seam_test(p_seam / p_inner, rolled_ratios(plain))
+        line += (f" over {len(images)} seeds (tiles rolled, no seam by construction: 5-95 % "
+                 f"{np.quantile(null, 0.05):.2f}-{np.quantile(null, 0.95):.2f}, <= 1.1 in "
+                 f"{np.mean(null <= 1.1):.0%}; more than 1.1 x the interior: p = "
+                 f"{r['seam_p']:.2f}, flagged on {r['alarms']:.0%} of other rolled draws, "
+                 f"seams flagged 9 times in 10 from {r['detect']:.2f} x); plain outputs: "
+                 f"ratio {p_seam / p_inner:.2f}, p = {r['plain_p']:.3f}")
     line += f"; colour step ratio {step / max(near, 1e-9):.2f}"
     print(line, file=sys.stderr, flush=True)
     return line
@@ -87,19 +101,25 @@ def _seam_line(name: str, images: list, plain: list, r: dict) -> str:
 
 def _seam_images(path: Path, ex, size, args, root: Path, tmp: str, first: Path) -> tuple:
     """Renderings of the output (seed ``args.seed``, already in ``first``) and, for a
-    --tileable run, of seeds + 1 ... and of the plain outputs of the same seeds."""
+    --tileable run, of seeds + 1 ... and of the plain outputs of the same seeds (kept in and
+    read back from ``args.seam_cache`` when given: syntheses are deterministic)."""
     tileable = "--tileable" in args.extra
     seeds = range(args.seed, args.seed + (args.seam_seeds if tileable else 1))
     plain_extra = " ".join(a for a in shlex.split(args.extra) if a != "--tileable")
+    cache = Path(args.seam_cache or tmp)
+    cache.mkdir(parents=True, exist_ok=True)
     images, plain = [], []
     for seed in seeds:
         for extra, out in ((args.extra, images), (plain_extra, plain if tileable else None)):
             if out is None:
                 continue
-            svg = Path(tmp) / f"{path.stem}-{seed}-{len(out)}-{extra == args.extra}.svg"
+            key = f"{args.method}{extra}".replace(" ", "").replace("/", "_")
+            svg = cache / f"{path.stem}-{key}-{seed}.svg"
             if seed == args.seed and extra == args.extra:
+                if args.seam_cache:  # kept beside the others (scripts/eval_cvt_wrap.py)
+                    svg.write_text(first.read_text())
                 svg = first
-            else:
+            elif not svg.exists():
                 synthesize(path, svg, args.scale, seed, args.method, extra, root)
             out.append(_render(svg.read_text(), size, ex))
     return images, plain
@@ -158,15 +178,19 @@ def totals(rows: list[dict], tileable: bool = False) -> str:
     plain = [r["plain_seam"] for r in rows if "plain_seam" in r]
     seam = ""
     if tileable and seams:
-        nulls = [r["null"] for r in rows if "null" in r]
-        above = [np.mean(n < r["seam"]) for n, r in zip(nulls, rows, strict=True)]
+        tested = [r for r in rows if "null" in r]
+        nulls = np.concatenate([r["null"] for r in tested])
         seam = (f"; tileable: seam patch SWD / interior within 1.1 on "
                 f"{sum(v <= 1.1 for v in seams)}/{len(seams)}, median {np.median(seams):.2f}, "
-                f"max {max(seams):.2f} (plain outputs of the same seeds: median "
-                f"{np.median(plain):.2f}, min {min(plain):.2f}; the same tiles rolled, no seam "
-                f"by construction: within 1.1 in {np.mean(np.concatenate(nulls) <= 1.1):.0%} "
-                f"of draws; the seam above the 95th percentile of its rolled tiles on "
-                f"{sum(a > 0.95 for a in above)}/{len(above)})")
+                f"max {max(seams):.2f}; shown more than 1.1 x the interior at "
+                f"{LEVEL:.0%} on {sum(r['seam_p'] < 1 - LEVEL for r in tested)}/{len(tested)} "
+                f"(validation: the same tiles rolled, no seam by construction, read within 1.1 "
+                f"in {np.mean(nulls <= 1.1):.0%} of draws and are flagged on "
+                f"{np.mean([r['alarms'] for r in tested]):.0%}; the plain outputs of the same "
+                f"seeds, real seams, read median {np.median(plain):.2f}, min {min(plain):.2f} "
+                f"and are flagged on {sum(r['plain_p'] < 1 - LEVEL for r in tested)}/"
+                f"{len(tested)}; seams flagged 9 times in 10 from median "
+                f"{np.median([r['detect'] for r in tested]):.2f} x the interior)")
     slow = max(rows, key=lambda r: r["cpu"])
     big = max(rows, key=lambda r: r["peak"])
     return (f"Totals over {n} exemplars: closer to the tiling than to random on all five "

@@ -81,3 +81,55 @@ def test_a_synthetic_seam_lies_above_the_rolled_tiles():
     assert seam / inner > np.quantile(null, 0.95)
     seamless = rolled_ratios([_discs(60, 192, seed=s) for s in range(3)], rolls=100)
     assert 0.6 < np.median(seamless) < 1.2
+
+
+def test_ratios_at_the_tiles_own_seam_is_the_seam_ratio():
+    """The null and the estimate read the same lines: at offset 0 ratios_at is seam_ratio
+    (irregular tiles, sides a multiple of the line grid)."""
+    from cvt.seam import ratios_at, tile_lines
+
+    tiles = [_discs(40, 128, seed=s) for s in range(2)]
+    seam, inner = seam_ratio(tiles)
+    got = ratios_at(tile_lines(tiles), np.zeros((1, 2, 2), int))
+    assert np.allclose(got, [seam / inner], rtol=1e-4)
+
+
+def test_seam_test_scales_the_null_by_the_margin():
+    from cvt.seam import seam_test
+
+    null = np.array([1.0, 1.0, 1.5, 2.0])
+    assert seam_test(2.0, null) == 0.25  # 1.1 x null = 1.1, 1.1, 1.65, 2.2: one reaches 2
+    assert seam_test(2.0, null, margin=1.0) == 0.25
+    assert seam_test(1.2, null) == 0.5
+    assert seam_test(1.05, null, margin=1.0) == 0.5
+    assert seam_test(1.05, null) == 1.0  # ... 1.1 x 1.0 >= 1.05: a seam within 10 % passes
+
+
+def test_detectable_is_the_factor_flagged_nine_times_in_ten():
+    from cvt.seam import LEVEL, detectable, seam_test
+
+    rng = np.random.default_rng(0)
+    null = rng.lognormal(0, 0.2, 2000)
+    f = detectable(null)
+    assert 1.1 < f < 2.5
+    draws = rng.lognormal(0, 0.2, 2000)
+    flagged = np.mean([seam_test(f * x, null) < 1 - LEVEL for x in draws])
+    assert 0.85 < flagged < 0.95
+    flagged_less = np.mean([seam_test(0.8 * f * x, null) < 1 - LEVEL for x in draws])
+    assert flagged_less < 0.8
+
+
+def test_the_seam_test_flags_a_cut_and_leaves_seamless_tiles_alone():
+    """Paired with its own null: seamless disc tiles are not shown worse than 1.1 x the
+    interior, in their own draws nearly never; tiles cut through discs are."""
+    from cvt.seam import LEVEL, rolled_ratios, seam_test
+
+    seamless = [_discs(60, 192, seed=s) for s in range(4)]
+    null = rolled_ratios(seamless, rolls=200)
+    seam, inner = seam_ratio(seamless)
+    assert seam_test(seam / inner, null) >= 1 - LEVEL
+    other = rolled_ratios(seamless, rolls=200, seed=1)
+    assert np.mean([seam_test(x, null) < 1 - LEVEL for x in other]) < 0.06
+    cut = [t[:148, :148] for t in seamless]
+    seam, inner = seam_ratio(cut)
+    assert seam_test(seam / inner, rolled_ratios(cut, rolls=200)) < 1 - LEVEL
