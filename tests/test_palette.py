@@ -67,3 +67,12 @@ def test_the_blend_runs_from_a_to_b_and_keeps_the_contrast_in_the_middle():
     ramp = palette_blend(a, la, b, lb, torch.linspace(0, 1, 32).expand(32, 32))
     assert torch.allclose(ramp[:, :, 0], a[:, :, 0], atol=1e-6)
     assert torch.allclose(ramp[:, :, -1], b[:, :, -1], atol=1e-6)
+
+
+def test_a_texton_without_pixels_gets_no_weight():
+    labels = np.zeros((4, 4), np.int64)
+    labels[:, 2:] = 1
+    colours, area = texton_colours(torch.full((3, 4, 4), 0.5), labels, count=3)
+    assert colours.shape == (3, 3) and area[2] == 0 and np.allclose(colours[:2], 0.5)
+    out = rank_colours(colours, area, np.array([[0.2, 0.2, 0.2]]), np.array([1.0]))
+    assert np.allclose(out, 0.2)

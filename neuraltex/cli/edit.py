@@ -125,7 +125,8 @@ def _palette(args: argparse.Namespace, source, apps: list, regions):
     with torch.no_grad():
         rec = lambda tex, size: common.decode(tex.decoder, tex.textons, size,  # noqa: E731
                                               args.device)[0].cpu()
-        colours, area = texton_colours(rec(source, tuple(source.labels.shape)), source.labels)
+        colours, area = texton_colours(rec(source, tuple(source.labels.shape)), source.labels,
+                                       source.textons.num_textons)
         target = colours.copy()
         for r, app in enumerate(apps):
             new = rank_colours(colours, area, *texton_colours(

@@ -27,17 +27,21 @@ LUMA = (0.299, 0.587, 0.114)  # ITU-R BT.601 weights of R, G, B
 FEATHER = 1.0  # std (px) of the blend of two segments' colour shifts at their border
 
 
-def texton_colours(picture: Tensor, labels: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def texton_colours(picture: Tensor, labels: np.ndarray,
+                   count: int | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Mean colour (K, 3) and area (K,) in pixels of each texton's segment in a picture
-    (3, H, W); labels (h, w) texton of each pixel at the fit's size (resampled)."""
+    (3, H, W); labels (h, w) texton of each pixel at the fit's size (resampled). With
+    ``count``, K = count: textons without a pixel get colour 0 and area 0."""
     from neuraltex.fit import segment_means
 
     H, W = picture.shape[-2:]
     if labels.shape != (H, W):
         lab = torch.from_numpy(np.ascontiguousarray(labels)).float()[None, None]
         labels = F.interpolate(lab, size=(H, W), mode="nearest")[0, 0].long().numpy()
-    K = int(labels.max()) + 1
-    colours = segment_means(picture.detach().double().cpu(), labels)[0].numpy()
+    K = max(int(labels.max()) + 1, count or 0)
+    colours = np.zeros((K, 3))
+    means = segment_means(picture.detach().double().cpu(), labels)[0].numpy()
+    colours[:len(means)] = means
     area = np.bincount(labels.ravel(), minlength=K).astype(np.float64)
     return colours, area
 
