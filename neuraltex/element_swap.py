@@ -42,6 +42,7 @@ from neuraltex.element_outline import (
     shift_pixels,
     stretch,
 )
+from neuraltex.nn_utils import blur, labels_at
 from neuraltex.texton_elements import SIZE_RATIO, ElementShapes, element_shapes
 
 MARGIN = 2.0    # ground pixels around a footprint that move with its element
@@ -231,9 +232,7 @@ def swap_and_count(image: Tensor, labels: np.ndarray, groups: np.ndarray, *,
     """:func:`swap_elements`, and how many elements moved of those that are not
     background: -> (picture (3, H, W), moved, elements)."""
     H, W = image.shape[-2:]
-    if labels.shape != (H, W):
-        lab = torch.from_numpy(np.ascontiguousarray(labels)).float()[None, None]
-        labels = F.interpolate(lab, size=(H, W), mode="nearest")[0, 0].long().numpy()
+    labels = labels_at(labels, (H, W))
     shapes, place, outline, target = plan(image, labels, groups, seed, size_ratio, margin)
     counts = int((target != np.arange(len(target))).sum()), int((~shapes.background).sum())
     grid, moved = source_grid(shapes, target, place)
@@ -278,15 +277,3 @@ def plan(image: Tensor, labels: np.ndarray, groups: np.ndarray, seed: int | None
     return shapes, place, outline, fitting_permutation(shapes, place, seed, size_ratio,
                                                        outline=outline, ground=ground,
                                                        where=where)
-
-
-def blur(mask: Tensor, sigma: float) -> Tensor:
-    """(H, W) -> (H, W): a separable Gaussian blur (replicated edges); sigma 0: unchanged."""
-    if sigma <= 0:
-        return mask
-    r = math.ceil(2 * sigma)
-    x = torch.arange(-r, r + 1, dtype=mask.dtype)
-    g = torch.exp(-x ** 2 / (2 * sigma ** 2))
-    g = g / g.sum()
-    a = F.conv2d(F.pad(mask[None, None], (r, r, 0, 0), mode="replicate"), g.view(1, 1, 1, -1))
-    return F.conv2d(F.pad(a, (0, 0, r, r), mode="replicate"), g.view(1, 1, -1, 1))[0, 0]

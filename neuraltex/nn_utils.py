@@ -1,9 +1,12 @@
-"""Small tensor helpers shared by the networks: padding to a stride, resizing, counting."""
+"""Small tensor helpers shared by the networks and the edits: padding to a stride, resizing,
+blurring, counting."""
 
 from __future__ import annotations
 
 import functools
+import math
 
+import numpy as np
 import torch
 import torch.nn.functional as F
 from torch import nn
@@ -70,3 +73,23 @@ def upsample_crop_resize(x: torch.Tensor, up: tuple[int, int], crop: tuple[int, 
     ry = _chain_matrix(x.shape[-2], up[0], crop[0], out[0]).to(x)  # (out_h, h)
     rx = _chain_matrix(x.shape[-1], up[1], crop[1], out[1]).to(x)  # (out_w, w)
     return ry @ x @ rx.T  # (B, C, out_h, out_w)
+
+
+def labels_at(labels: np.ndarray, size: tuple[int, int]) -> np.ndarray:
+    """An (h, w) int label map resampled (nearest) to ``size`` = (H, W)."""
+    if labels.shape == tuple(size):
+        return labels
+    lab = torch.from_numpy(np.ascontiguousarray(labels)).float()[None, None]
+    return F.interpolate(lab, size=tuple(size), mode="nearest")[0, 0].long().numpy()
+
+
+def blur(mask: torch.Tensor, sigma: float) -> torch.Tensor:
+    """(H, W) -> (H, W): a separable Gaussian blur (replicated edges); sigma 0: unchanged."""
+    if sigma <= 0:
+        return mask
+    r = math.ceil(2 * sigma)
+    x = torch.arange(-r, r + 1, dtype=mask.dtype)
+    g = torch.exp(-x ** 2 / (2 * sigma ** 2))
+    g = g / g.sum()
+    a = F.conv2d(F.pad(mask[None, None], (r, r, 0, 0), mode="replicate"), g.view(1, 1, 1, -1))
+    return F.conv2d(F.pad(a, (0, 0, r, r), mode="replicate"), g.view(1, 1, -1, 1))[0, 0]

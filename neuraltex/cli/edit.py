@@ -123,18 +123,16 @@ def _palette(args: argparse.Namespace, source, apps: list, regions):
     from neuraltex.edit.palette import rank_colours, recolour, texton_colours
 
     with torch.no_grad():
-        rec = lambda tex, size: common.decode(tex.decoder, tex.textons, size,  # noqa: E731
-                                              args.device)[0].cpu()
-        colours, area = texton_colours(rec(source, tuple(source.labels.shape)), source.labels,
-                                       source.textons.num_textons)
+        picture = _decode(args, source.decoder, source.textons, source.short).cpu()
+        colours, area = texton_colours(picture, source.labels, source.textons.num_textons)
         target = colours.copy()
         for r, app in enumerate(apps):
-            new = rank_colours(colours, area, *texton_colours(
-                rec(app, tuple(app.labels.shape)), app.labels))
+            own = common.decode(app.decoder, app.textons, tuple(app.labels.shape),
+                                args.device)[0].cpu()
+            new = rank_colours(colours, area, *texton_colours(own, app.labels))
             region = (slice(None) if regions is None else source.textons.in_region(
                 regions.to(source.textons.mu.device) == r)[0].cpu().numpy())
             target[region] = new[region]
-        picture = _decode(args, source.decoder, source.textons, source.short).cpu()
         return recolour(picture, source.labels, colours, target)
 
 

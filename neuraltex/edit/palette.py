@@ -20,8 +20,9 @@ from __future__ import annotations
 
 import numpy as np
 import torch
-import torch.nn.functional as F
 from torch import Tensor
+
+from neuraltex.nn_utils import blur, labels_at
 
 LUMA = (0.299, 0.587, 0.114)  # ITU-R BT.601 weights of R, G, B
 FEATHER = 1.0  # std (px) of the blend of two segments' colour shifts at their border
@@ -34,10 +35,7 @@ def texton_colours(picture: Tensor, labels: np.ndarray,
     ``count``, K = count: textons without a pixel get colour 0 and area 0."""
     from neuraltex.fit import segment_means
 
-    H, W = picture.shape[-2:]
-    if labels.shape != (H, W):
-        lab = torch.from_numpy(np.ascontiguousarray(labels)).float()[None, None]
-        labels = F.interpolate(lab, size=(H, W), mode="nearest")[0, 0].long().numpy()
+    labels = labels_at(labels, tuple(picture.shape[-2:]))
     K = max(int(labels.max()) + 1, count or 0)
     colours = np.zeros((K, 3))
     means = segment_means(picture.detach().double().cpu(), labels)[0].numpy()
@@ -71,12 +69,7 @@ def recolour(picture: Tensor, labels: np.ndarray, colours: np.ndarray, target: n
     its mean colour ``colours`` (K, 3) to ``target`` (K, 3): the shift of each pixel's
     segment, blurred by ``feather`` px across segment borders, added; the detail inside a
     segment (its shading, edges, the sprites) stays."""
-    from neuraltex.element_swap import blur
-
-    H, W = picture.shape[-2:]
-    lab = torch.from_numpy(np.ascontiguousarray(labels)).long()
-    if labels.shape != (H, W):
-        lab = F.interpolate(lab.float()[None, None], size=(H, W), mode="nearest")[0, 0].long()
+    lab = torch.from_numpy(labels_at(labels, tuple(picture.shape[-2:])))
     shift = torch.from_numpy(target - colours).to(picture)[lab].permute(2, 0, 1)  # (3, H, W)
     shift = torch.stack([blur(c, feather) for c in shift])
     return (picture + shift).clamp(0, 1)
@@ -90,10 +83,8 @@ def palette_blend(a: Tensor, labels_a: np.ndarray, b: Tensor, labels_b: np.ndarr
     palette), then the two are mixed, (1 - t) a_t + t b_t, with the variance the mix loses
     restored: for uncorrelated textures it falls to (1 - t)^2 s_a^2 + t^2 s_b^2 (a washed-out
     middle), and it is scaled around the mean back to (1 - t) s_a^2 + t s_b^2 per channel."""
-    ca, na = texton_colours(a, labels_a)
-    cb, nb = texton_colours(b, labels_b)
-    a_as_b = recolour(a, labels_a, ca, rank_colours(ca, na, cb, nb))
-    b_as_a = recolour(b, labels_b, cb, rank_colours(cb, nb, ca, na))
+    a_as_b = palette_transfer(a, labels_a, b, labels_b)
+    b_as_a = palette_transfer(b, labels_b, a, labels_a)
     t = torch.as_tensor(t, dtype=a.dtype)
     a_t = torch.lerp(a, a_as_b, t)
     b_t = torch.lerp(b_as_a, b, t)
