@@ -24,7 +24,6 @@ stored as its textons plus the change of G (:mod:`neuraltex.texture_file`).
 
 from __future__ import annotations
 
-import copy
 import math
 import time
 from collections.abc import Callable
@@ -36,6 +35,7 @@ import torch.nn.functional as F
 from torch import Tensor, nn
 
 from neuraltex.estimation import estimate_textons, painter_order
+from neuraltex.fit_prior import start_generator
 from neuraltex.nn_utils import resize
 from neuraltex.segmenters import MAX_SEGMENTS, METHODS, segment_labels, soft_masks
 from neuraltex.splatting import splat
@@ -71,6 +71,8 @@ class FitSettings:
     eval_every: int = 25          # steps between full-image PSNR readings
     detail: int | None = None     # side of each texton's detail sprite (None: by the
     #                               texton count, texton_detail.auto_side; 0: no sprites)
+    prior: bool = True            # start G from the model's fit prior when it has one
+    #                               (neuraltex.fit_prior); False: from the model's own G
     seed: int = 0
 
 
@@ -220,23 +222,9 @@ def fit_texture(model, image: Tensor, settings: FitSettings | None = None,
     begin = time.perf_counter()
     method, textons, labels = choose_segments(model, image, cfg.segmenter, cfg.max_textons,
                                               cfg.ground)
-    H, W = image.shape[-2:]
-    with torch.no_grad():
-        first = model.decode(textons, (H, W))[0]  # (3, H, W)
-    offsets = segment_means(image - first, labels)  # (1, K, 3): start at the segment colours
     rng = torch.Generator().manual_seed(cfg.seed)
-    G = ColourOffsetGenerator(copy.deepcopy(model.generator)).eval()  # eval: keep BN stats
-    for p in G.parameters():
-        p.requires_grad_(True)
-    fa = nn.Parameter(textons.f.detach().clone())
-    d = nn.Parameter(offsets)
-    opt = torch.optim.Adam([{"params": list(G.parameters()), "lr": cfg.lr},
-                            {"params": [fa], "lr": cfg.lr_features},
-                            {"params": [d], "lr": cfg.lr_offsets}])
-
-    def current() -> Textons:
-        return replace(textons, f=torch.cat([F.normalize(fa, dim=-1), d], dim=-1))
-
+    G = ColourOffsetGenerator(start_generator(model, cfg.prior)).eval()  # eval: keep BN stats
+    current, opt = tuning(G, textons, first_offsets(model, image, textons, labels), cfg)
     progress = tqdm(total=cfg.steps, desc="fit", unit="step", leave=False,
                     disable=None if bar is None else not bar)
     budget = tuning_budget(cfg.seconds, time.perf_counter() - begin)
@@ -245,10 +233,7 @@ def fit_texture(model, image: Tensor, settings: FitSettings | None = None,
     if on_eval:
         on_eval(0, 0.0, score)
     while not _done(cfg.steps, budget, step, time.perf_counter() - start):
-        loss = _crop_loss(model, G, image, current(), cfg, rng)
-        opt.zero_grad(set_to_none=True)
-        loss.backward()
-        opt.step()
+        tuning_step(model, G, image, current(), opt, cfg, rng)
         step += 1
         if step % cfg.eval_every == 0:
             score = _full_psnr(model, G, image, current())
@@ -262,6 +247,7 @@ def fit_texture(model, image: Tensor, settings: FitSettings | None = None,
     plain = score = _full_psnr(model, G, image, fitted)
     start = time.perf_counter()
     elements = group_textons(image, labels, fitted)
+    H, W = image.shape[-2:]
     side = auto_side(fitted.num_textons, (H, W)) if cfg.detail is None else cfg.detail
     if side:
         fitted = fit_detail(model, G, image, fitted, side, labels, elements)
@@ -269,6 +255,39 @@ def fit_texture(model, image: Tensor, settings: FitSettings | None = None,
     tuned = {k: v.detach().clone() for k, v in G.generator.named_parameters()}
     return TextureFit(fitted, labels, tuned, method, step, seconds, score, side, base, plain,
                       time.perf_counter() - start, elements)
+
+
+def first_offsets(model, image: Tensor, textons: Textons, labels: np.ndarray) -> Tensor:
+    """The colour offsets d (1, K, 3) tuning starts from: each segment's mean colour minus
+    the mean of the base model's decode there, so colours are right from the first step."""
+    with torch.no_grad():
+        first = model.decode(textons, tuple(image.shape[-2:]))[0]  # (3, H, W)
+    return segment_means(image - first, labels)
+
+
+def tuning(G: nn.Module, textons: Textons, offsets: Tensor, cfg: FitSettings
+           ) -> tuple[Callable[[], Textons], torch.optim.Optimizer]:
+    """What step 3 optimizes: G's parameters (requires_grad on), the textons' appearance f_a
+    (kept unit length, eq. 4.6) and their colour offsets d, with Adam. Returns (current
+    textons with f = [f_a, d], the optimizer)."""
+    for p in G.parameters():
+        p.requires_grad_(True)
+    fa = nn.Parameter(textons.f.detach().clone())
+    d = nn.Parameter(offsets.detach().clone())
+    opt = torch.optim.Adam([{"params": list(G.parameters()), "lr": cfg.lr},
+                            {"params": [fa], "lr": cfg.lr_features},
+                            {"params": [d], "lr": cfg.lr_offsets}])
+    return (lambda: replace(textons, f=torch.cat([F.normalize(fa, dim=-1), d], dim=-1))), opt
+
+
+def tuning_step(model, G: nn.Module, image: Tensor, textons: Textons,
+                opt: torch.optim.Optimizer, cfg: FitSettings, rng: torch.Generator) -> float:
+    """One Adam step of the tuning on a random crop (:func:`_crop_loss`); returns the loss."""
+    loss = _crop_loss(model, G, image, textons, cfg, rng)
+    opt.zero_grad(set_to_none=True)
+    loss.backward()
+    opt.step()
+    return loss.item()
 
 
 def fit_detail(model, G: nn.Module, image: Tensor, textons: Textons, side: int,

@@ -154,6 +154,7 @@ def load_model(path, device: str | torch.device = "cpu",
     """Load an inference export (``.safetensors``) for encode/decode; errors are one line.
     ``num_queries``: with E_s's queries resampled to this many (:mod:`neuraltex.query_grid`)."""
     from neuraltex.checkpoint import CheckpointError, load_exported_model
+    from neuraltex.fit_prior import attach_prior
 
     state, config, info = load_exported_model(path)
     try:
@@ -168,4 +169,5 @@ def load_model(path, device: str | torch.device = "cpu",
     except (KeyError, ValueError, RuntimeError, TypeError) as exc:
         raise CheckpointError(f"{path}: weights do not fit the model they describe "
                               f"({' '.join(str(exc).split())[:160]})") from None
+    attach_prior(model, path)
     return model.to(device).eval()

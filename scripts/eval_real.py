@@ -14,10 +14,11 @@ computed here on the same images:
   moved is the share of elements that moved; change is the mean
   |reshuffle - reconstruction| per pixel and channel (a reshuffle that changes nothing would
   score 0 and match the reconstruction's SWD);
-- init: with ``--init-compare N``, the first N images are also tuned from a randomly
-  initialized model for the same seconds (does the pretrained model earn its place?); with
-  ``--init-chain M`` also from the shipped G first tuned, in the fit's own regime, on M
-  procedural textures of a training seed in turn (a start pretrained the way it is used).
+- init: with ``--init-compare N``, the first N images are tuned three more times at the same
+  budget, G alone: from the shipped weights with their fit prior (what ``fit`` does,
+  neuraltex.fit_prior), from the shipped G without it, and from a randomly initialized model
+  (does the pretrained model earn its place?); with ``--init-chain M`` also from the shipped G
+  first tuned, in the fit's own regime, on M procedural textures of a training seed in turn.
 
     python scripts/eval_real.py                      # 25 real textures, default fit budget
     python scripts/eval_real.py --seconds 20 --limit 5 --init-compare 3
@@ -251,28 +252,34 @@ def main() -> None:
 
 
 def init_compare(images, settings: FitSettings, chain: int = 0) -> list[str]:
-    """Pretrained vs random initialization at the same budget, on ``images``: the final PSNRs
-    and how soon each start reaches the other's final PSNR of G alone (the tuning's climb,
-    read every ``eval_every`` steps; the target: the shipped start wins by 2 dB or gets
-    there 2x sooner). With ``chain``, a third start: :func:`chained_model`."""
+    """Where the tuning starts, at the same budget, on ``images``: the shipped weights with
+    their fit prior (what ``fit`` does; :mod:`neuraltex.fit_prior`), the shipped G without
+    it, and random weights. Prints the final PSNRs of G alone and how soon each start reaches
+    random's final PSNR (the tuning's climb, read every ``eval_every`` steps; the target: the
+    shipped start wins by 2 dB or gets there 2x sooner). With ``chain``, a fourth start:
+    :func:`chained_model`."""
     if not images:
         return []
-    pre, rnd = load_model(DEFAULT_MODEL), build_model(load_model(DEFAULT_MODEL).config).eval()
-    chained = chained_model(pre, chain, settings) if chain else None
+    pre = load_model(DEFAULT_MODEL)
+    rnd = build_model(pre.config).eval()
+    chained = chained_model(pre, chain, replace(settings, prior=False)) if chain else None
+    plain = replace(settings, prior=False)
     out = []
     for name, image in images:
-        (a, ca), (b, cb) = (_climb(m, image, settings) for m in (pre, rnd))
-        out.append(f"init {name}: pretrained {a.plain_psnr:.2f} dB vs random "
-                   f"{b.plain_psnr:.2f} dB before sprites, {a.psnr:.2f} vs {b.psnr:.2f} with "
-                   f"them ({a.steps} / {b.steps} steps); random's final level: "
-                   f"{_sooner(ca, cb, b.plain_psnr)}; pretrained's final level: "
-                   f"{_sooner(ca, cb, a.plain_psnr)}")
+        (a, ca), (g, cg), (b, cb) = (_climb(pre, image, settings), _climb(pre, image, plain),
+                                      _climb(rnd, image, plain))
+        prior = "fit prior" if getattr(pre, "fit_prior", None) is not None else "no fit prior"
+        out.append(f"init {name}: shipped ({prior}) {a.plain_psnr:.2f} dB, shipped G alone "
+                   f"{g.plain_psnr:.2f} dB, random {b.plain_psnr:.2f} dB before sprites "
+                   f"({a.steps} / {g.steps} / {b.steps} steps; {ca[-1][1]:.0f} / "
+                   f"{cg[-1][1]:.0f} / {cb[-1][1]:.0f} s); random's final level: shipped "
+                   f"{_sooner(ca, cb, b.plain_psnr)}; shipped G alone "
+                   f"{_sooner(cg, cb, b.plain_psnr)}; margin {a.plain_psnr - b.plain_psnr:+.2f} dB")
         if chained is not None:
-            c, cc = _climb(chained, image, settings)
+            c, cc = _climb(chained, image, plain)
             out.append(f"init {name}: chained ({chain} procedural) {cc[0][2]:.2f} -> "
-                       f"{c.plain_psnr:.2f} dB before sprites (pretrained {ca[0][2]:.2f} -> "
-                       f"{a.plain_psnr:.2f}, random {cb[0][2]:.2f} -> {b.plain_psnr:.2f}); "
-                       f"random's final level: chained vs random {_sooner(cc, cb, b.plain_psnr)}")
+                       f"{c.plain_psnr:.2f} dB before sprites; random's final level: "
+                       f"chained vs random {_sooner(cc, cb, b.plain_psnr)}")
     return out
 
 
@@ -307,11 +314,11 @@ def _reaches(curve, level: float):
 
 
 def _sooner(pre, rnd, level: float) -> str:
-    """When each climb first reaches ``level`` dB, and how many times sooner the pretrained."""
+    """When each climb first reaches ``level`` dB, and how many times sooner the first."""
     a, b = _reaches(pre, level), _reaches(rnd, level)
     say = lambda h: "never" if h is None else f"step {h[0]}"  # noqa: E731
     ratio = f", {b[0] / max(a[0], 1):.1f}x sooner" if a and b else ""
-    return f"pretrained {say(a)}, random {say(b)}{ratio}"
+    return f"{say(a)} vs random {say(b)}{ratio}"
 
 
 if __name__ == "__main__":

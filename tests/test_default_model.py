@@ -35,7 +35,19 @@ def test_version_and_model_info_name_the_default_model(capsys):
     out = capsys.readouterr().out
     assert "neuraltex" in out and "default model: preset tiny, 100 queries" in out
     assert main(["model-info"]) == 0
-    assert "(shipped default)" in capsys.readouterr().out
+    out = capsys.readouterr().out
+    assert "(shipped default)" in out
+    assert "fit prior: default.fit_prior.safetensors (Reptile, 400 iterations" in out
+
+
+def test_the_shipped_fit_prior_belongs_to_the_shipped_decoder(model):
+    from neuraltex.fit_prior import start_generator
+
+    params, header = model.fit_prior  # loaded and checked with the model
+    assert header["info"]["iterations_done"] == 400
+    G = start_generator(model)
+    assert any(not torch.equal(p, q) for p, q in zip(G.parameters(),
+                                                     model.generator.parameters()))
 
 
 def test_encoding_an_easy_benchmark_image_gives_a_plausible_texton_count(model):

@@ -52,7 +52,10 @@ def test_command_is_valid_as_written(argv):
     elif argv[:3] == ["python", "-m", "train"]:
         _compose([a for a in argv[3:] if not a.startswith("-")])
     elif argv[0] == "python":
-        module = argv[2].replace(".", "/") + "/__main__.py" if argv[1] == "-m" else argv[1]
+        module = argv[1]
+        if argv[1] == "-m":  # a package runs its __main__.py, a module itself
+            module = argv[2].replace(".", "/")
+            module += "/__main__.py" if (ROOT / module).is_dir() else ".py"
         source = (ROOT / module).read_text()
         for opt in (a.split("=")[0] for a in argv if a.startswith("--")):
             assert f'"{opt}"' in source, f"{module} has no option {opt}"

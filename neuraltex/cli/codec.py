@@ -116,9 +116,22 @@ def cmd_model_info(args: argparse.Namespace) -> int:
     n = sum(p.numel() for p in model.parameters())
     print(f"model: {path}{' (shipped default)' if not args.checkpoint else ''}")
     print(f"{n / 1e6:.2f} M parameters; {summary(model.config.to_dict(), model.info)}")
+    print(f"fit prior: {_prior_line(model, path)}")
     if args.json:
         print(json.dumps({"config": model.config.to_dict(), "info": model.info}, indent=1))
     return 0
+
+
+def _prior_line(model, weights: Path) -> str:
+    """Where ``neuraltex fit`` starts tuning G (neuraltex.fit_prior), in one line."""
+    from neuraltex.fit_prior import prior_path
+
+    if getattr(model, "fit_prior", None) is None:
+        return "none (fit starts from this model's G)"
+    info = model.fit_prior[1].get("info", {})
+    return (f"{prior_path(weights).name} (Reptile, {info.get('iterations_done', '?')} "
+            f"iterations of {info.get('inner_steps', '?')} tuning steps on "
+            f"{info.get('tasks', '?')} procedural textures)")
 
 
 def add_commands(sub) -> None:
