@@ -209,6 +209,9 @@ def main() -> None:
     ap.add_argument("--init-chain", type=int, default=0,
                     help="with --init-compare: also start from the shipped G tuned on this "
                     "many procedural textures (training seed) in turn, same budget each")
+    ap.add_argument("--init-seeds", type=int, default=1,
+                    help="with --init-compare: random initializations to compare with "
+                    "(torch seeds 0..N-1; default 1)")
     ap.add_argument("--init-only", action="store_true",
                     help="only the --init-compare runs (no table)")
     ap.add_argument("--threads", type=int, default=1, help="torch threads (default 1)")
@@ -224,7 +227,8 @@ def main() -> None:
     images = [(p.stem, load_image(p)) for p in sorted(REAL.glob("*.png"))][:args.limit]
     images += procedural_images(args.procedural)
     if args.init_only:
-        print("\n".join(init_compare(images[:args.init_compare], settings, args.init_chain)))
+        print("\n".join(init_compare(images[:args.init_compare], settings, args.init_chain,
+                                     args.init_seeds)))
         return
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
@@ -244,43 +248,59 @@ def main() -> None:
                   flush=True)
         real = [(n, r) for n, r in rows if not n.startswith("procedural_")]
         text = table(rows) + "\n\n" + "\n".join(f"- {s}" for s in summary(real or rows))
-        init = init_compare(images[:args.init_compare], settings, args.init_chain)
+        init = init_compare(images[:args.init_compare], settings, args.init_chain,
+                            args.init_seeds)
         text += "".join(f"\n- {s}" for s in init)
     print(text)
     if args.out:
         args.out.write_text(text + "\n")
 
 
-def init_compare(images, settings: FitSettings, chain: int = 0) -> list[str]:
+def init_compare(images, settings: FitSettings, chain: int = 0, seeds: int = 1) -> list[str]:
     """Where the tuning starts, at the same budget, on ``images``: the shipped weights with
     their fit prior (what ``fit`` does; :mod:`neuraltex.fit_prior`), the shipped G without
-    it, and random weights. Prints the final PSNRs of G alone and how soon each start reaches
-    random's final PSNR (the tuning's climb, read every ``eval_every`` steps; the target: the
-    shipped start wins by 2 dB or gets there 2x sooner). With ``chain``, a fourth start:
-    :func:`chained_model`."""
+    it, and random weights (``seeds`` initializations, torch seeds 0, 1, ...). Prints the
+    final PSNRs of G alone, the shipped start's margin over random's mean and best, and how
+    soon each start reaches random's mean final PSNR (the tuning's climb, read every
+    ``eval_every`` steps; the target: the shipped start wins by 2 dB or gets there 2x sooner).
+    With ``chain``, one more start: :func:`chained_model`."""
     if not images:
         return []
     pre = load_model(DEFAULT_MODEL)
-    rnd = build_model(pre.config).eval()
+    randoms = []
+    for seed in range(seeds):
+        torch.manual_seed(seed)
+        randoms.append(build_model(pre.config).eval())
     chained = chained_model(pre, chain, replace(settings, prior=False)) if chain else None
     plain = replace(settings, prior=False)
     out = []
     for name, image in images:
-        (a, ca), (g, cg), (b, cb) = (_climb(pre, image, settings), _climb(pre, image, plain),
-                                      _climb(rnd, image, plain))
+        (a, ca), (g, cg) = _climb(pre, image, settings), _climb(pre, image, plain)
+        rnd = [_climb(m, image, plain) for m in randoms]
+        finals = [b.plain_psnr for b, _ in rnd]
+        level = sum(finals) / len(finals)
         prior = "fit prior" if getattr(pre, "fit_prior", None) is not None else "no fit prior"
         out.append(f"init {name}: shipped ({prior}) {a.plain_psnr:.2f} dB, shipped G alone "
-                   f"{g.plain_psnr:.2f} dB, random {b.plain_psnr:.2f} dB before sprites "
-                   f"({a.steps} / {g.steps} / {b.steps} steps; {ca[-1][1]:.0f} / "
-                   f"{cg[-1][1]:.0f} / {cb[-1][1]:.0f} s); random's final level: shipped "
-                   f"{_sooner(ca, cb, b.plain_psnr)}; shipped G alone "
-                   f"{_sooner(cg, cb, b.plain_psnr)}; margin {a.plain_psnr - b.plain_psnr:+.2f} dB")
+                   f"{g.plain_psnr:.2f} dB, random (seeds 0-{seeds - 1}) "
+                   f"{' / '.join(f'{f:.2f}' for f in finals)} dB (mean {level:.2f}) before "
+                   f"sprites, {a.steps} steps each ({ca[-1][1]:.0f} / {cg[-1][1]:.0f} / "
+                   f"{rnd[0][1][-1][1]:.0f} s); margin over random's mean "
+                   f"{a.plain_psnr - level:+.2f} dB, over its best "
+                   f"{a.plain_psnr - max(finals):+.2f} dB; random's mean final level: shipped "
+                   f"{_sooner(ca, _mean_climb([c for _, c in rnd]), level)}; shipped G alone "
+                   f"{_sooner(cg, _mean_climb([c for _, c in rnd]), level)}")
         if chained is not None:
             c, cc = _climb(chained, image, plain)
             out.append(f"init {name}: chained ({chain} procedural) {cc[0][2]:.2f} -> "
-                       f"{c.plain_psnr:.2f} dB before sprites; random's final level: "
-                       f"chained vs random {_sooner(cc, cb, b.plain_psnr)}")
+                       f"{c.plain_psnr:.2f} dB before sprites; random's mean final level: "
+                       f"chained {_sooner(cc, _mean_climb([c for _, c in rnd]), level)}")
     return out
+
+
+def _mean_climb(curves):
+    """The mean of climbs read at the same steps: [(step, seconds, PSNR)]."""
+    return [(rows[0][0], sum(r[1] for r in rows) / len(rows), sum(r[2] for r in rows) / len(rows))
+            for rows in zip(*curves, strict=False)]
 
 
 def chained_model(model, count: int, settings: FitSettings):
