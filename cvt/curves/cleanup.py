@@ -22,6 +22,8 @@ from cvt.curves.closure import close_ends
 from cvt.curves.ends import CAP_REACH, capped_ends, facing_pairs, outward, run_on
 from cvt.curves.graph import CurveGraph, components
 
+SPUR_SPAN = 2  # output spurs longer than this many times the exemplar's longest are stubs
+
 
 def _interior(g: CurveGraph, box, margin: float) -> np.ndarray:
     """Samples at least ``margin`` inside ``box``. Shape: -> (N,) bool."""
@@ -79,7 +81,11 @@ def prune(out: CurveGraph, exemplar: CurveGraph, in_box, out_box, delta: float, 
     exemplar's stroke ends are capped by discrete elements (a circuit's pads), a small piece
     with every end capped too is a short lead like the exemplar's, not dust: it stays. The
     first ``keep`` samples (a user's strokes) always stay."""
-    ex_spur = min((len(c) for c in spurs(exemplar, in_box, 2 * delta)), default=10**9)
+    ex_spurs = [len(c) for c in spurs(exemplar, in_box, 2 * delta)]
+    ex_spur = min(ex_spurs, default=10**9)
+    # spurs far longer than the exemplar's longest: a stroke hanging out of a shape whose
+    # only spurs are ticks (a gothic letter's serifs), a stub it does not have
+    long_spur = SPUR_SPAN * max(ex_spurs, default=10**9)
     ex_comp = specks(exemplar, in_box, 1.5 * delta)
     min_comp = _smallest(ex_comp, np.ones(len(exemplar), dtype=bool), 3)
     min_open = _smallest(ex_comp, open_pieces(exemplar, in_box, delta), 0)
@@ -87,7 +93,7 @@ def prune(out: CurveGraph, exemplar: CurveGraph, in_box, out_box, delta: float, 
     for _ in range(rounds):
         drop = np.zeros(len(out), dtype=bool)
         for chain in spurs(out, out_box, 2 * delta):
-            if len(chain) < ex_spur:
+            if len(chain) < ex_spur or len(chain) > long_spur:
                 drop[chain] = True
         comp = specks(out, out_box, 1.5 * delta)
         small = (comp < min_comp) | ((comp < min_open) & open_pieces(out, out_box, delta))
