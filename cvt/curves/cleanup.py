@@ -19,6 +19,7 @@ import numpy as np
 import torch
 
 from cvt.curves.closure import close_ends
+from cvt.curves.domain import deep_inside
 from cvt.curves.ends import CAP_REACH, capped_ends, facing_pairs, outward, run_on
 from cvt.curves.graph import CurveGraph, components
 
@@ -26,7 +27,11 @@ SPUR_SPAN = 2  # output spurs longer than this many times the exemplar's longest
 
 
 def _interior(g: CurveGraph, box, margin: float) -> np.ndarray:
-    """Samples at least ``margin`` inside ``box``. Shape: -> (N,) bool."""
+    """Samples at least ``margin`` inside ``box``: (x0, y0, x1, y1), or a domain predicate
+    (a user's ``--domain`` shape, whose border cuts strokes like the canvas'). Shape: -> (N,)
+    bool."""
+    if callable(box):
+        return deep_inside(g.pos, box, margin)
     pos = g.pos.numpy()
     x0, y0, x1, y1 = box
     return ((pos[:, 0] >= x0 + margin) & (pos[:, 0] <= x1 - margin) & (pos[:, 1] >= y0 + margin)

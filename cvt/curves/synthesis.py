@@ -8,8 +8,11 @@ the matched neighborhoods do not back are closed after every edge assignment, an
 fragments dropped after each level's last (cvt.curves.ends). The spacings come from
 cvt.curves.spacing (finer for finely detailed strokes). Each level
 after the first starts from the previous level's paths re-sampled at the finer spacing. The
-domain constraint (eqs. 13, 15) is a predicate ``inside``: samples that leave the domain are
-dropped and missing samples are only added inside it. A ``fixed`` graph (autocomplete: what the
+domain constraint (eqs. 13, 15) is a predicate ``inside``: samples that a position assignment
+moves out of a user's domain shape are pulled back toward its border by eq. 15's domain term
+(cvt.curves.domain; ``domain_pull`` 0: dropped, as at the canvas edge, which crops the pattern
+like the exemplar's own crop), samples still outside are dropped, and missing samples are only
+added inside it. A ``fixed`` graph (autocomplete: what the
 user drew) stays where it is, keeps its edges and is never removed; new edges may join it.
 """
 
@@ -24,6 +27,7 @@ import torch
 from scipy.spatial import cKDTree
 
 from cvt.assignment import assign_positions
+from cvt.curves.domain import Domain, deep_inside
 from cvt.curves.edges import assign_edges, expected_degree
 from cvt.curves.ends import (
     CAP_REACH,
@@ -78,6 +82,9 @@ class CurveConfig:
     grow: float = 0.1
     free_reach: float = 8.0
     init_candidates: int = 16  # patches tried per init cell (init.py)
+    # eq. 15 domain term: weight of the pull of a sample outside a user's domain shape toward
+    # its border, in votes (a sample has about 2 k_max of weight 1); 0: such samples dropped
+    domain_pull: float = 2.0
     detail_turn: float = 1.0  # finer spacings for strokes turning faster (spacing.py; 0: off)
     max_halvings: int = 2
     max_exemplar: int = 1500  # finest exemplar samples the finer spacing may reach
@@ -114,6 +121,7 @@ class _Level:
     capped: np.ndarray  # (N_in,) bool: input ends with a discrete element at them
     deg_in: torch.Tensor  # (N_in,) input degrees, ends cut by the exemplar's canvas as 2
     side: bool  # join unwanted ends side by side (the exemplar has few such ends itself)
+    pull: Domain | None  # a user's domain shape, for eq. 15's pull (None: no shape, or off)
 
     @property
     def end_free(self) -> bool:
@@ -157,7 +165,9 @@ def run_boxed(cx: CurveExemplar, out_box, cfg: CurveConfig, inside: Inside | Non
     for li, lv in enumerate(levels):
         held = fixed(lv.delta) if fixed is not None else None
         out = _drop_near(out, held, lv.delta) if held is not None else out
-        state = _level_state(lv, res.inputs[li], cx, cfg, domain, held)
+        pull = Domain.of(domain, out_box, lv.delta / 4) \
+            if inside is not None and cfg.domain_pull > 0 else None
+        state = _level_state(lv, res.inputs[li], cx, cfg, domain, held, pull)
         out = _run_level(li, state, out, cfg, gen, res, on_iteration)
         res.samples_per_level.append(len(out))
         if li + 1 < len(levels):
@@ -168,14 +178,14 @@ def run_boxed(cx: CurveExemplar, out_box, cfg: CurveConfig, inside: Inside | Non
     return res
 
 
-def _level_state(lv, inp, cx, cfg, domain, fixed) -> _Level:
+def _level_state(lv, inp, cx, cfg, domain, fixed, pull=None) -> _Level:
     index = _input_index(inp, cx.box, lv, cfg)
     n_fixed = 0 if fixed is None else len(fixed)
     keep = torch.zeros(0, 2, dtype=torch.long) if fixed is None else fixed.edges
     deg = run_on_degree(inp, cx.box, lv.delta)
     side = side_by_side(inp, deg.numpy(), cfg.end_reach / 2 * lv.delta) < SIDE_BY_SIDE
     return _Level(lv, inp, edge_embedding(inp), index, domain, n_fixed, keep,
-                  capped_ends(inp, CAP_REACH * lv.delta), deg, side)
+                  capped_ends(inp, CAP_REACH * lv.delta), deg, side, pull)
 
 
 def run_on_degree(inp: CurveGraph, box, delta: float) -> torch.Tensor:
@@ -227,10 +237,7 @@ def _run_level(li: int, s: _Level, out: CurveGraph, cfg: CurveConfig, gen, res: 
 
 def _rim(pos: torch.Tensor, inside: Inside, margin: float) -> np.ndarray:
     """Samples within ``margin`` of the domain border. Shape: (N, 2) -> (N,) bool."""
-    ok = torch.ones(len(pos), dtype=torch.bool)
-    for d in ((margin, 0.0), (-margin, 0.0), (0.0, margin), (0.0, -margin)):
-        ok &= inside(pos + torch.tensor(d, dtype=pos.dtype))
-    return (~ok).numpy()
+    return ~deep_inside(pos, inside, margin)
 
 
 def _search(out: CurveGraph, s: _Level, cfg: CurveConfig, field_, passes: int, gen):
@@ -248,8 +255,7 @@ def _assign(out: CurveGraph, m, s: _Level, cfg: CurveConfig):
     """Positions by least squares (eqs. 14-15), then edges (eqs. 17-22) with the breaks the
     matched neighborhoods do not back closed (cvt.curves.ends). Returns the graph and the
     expected degrees (eq. 18). Shape: -> CurveGraph, (N,)."""
-    pos = assign_positions(out.pos, m, s.inp.pos, huber=cfg.huber * s.lv.delta)
-    pos[: s.n_fixed] = out.pos[: s.n_fixed]
+    pos = _positions(out, m, s, cfg)
     out = out.with_(pos=pos, style=_voted_style(out, m, s), source=m.center)
     center = m.center.numpy()
     bare = s.capped[center] & ~near_element(out, CAP_REACH * s.lv.delta) if s.capped.any() \
@@ -264,6 +270,27 @@ def _assign(out: CurveGraph, m, s: _Level, cfg: CurveConfig):
         return close_breaks(out, want, cfg.end_reach * s.lv.delta, side=s.side), want
     rim = _rim(out.pos, s.inside, 2 * s.lv.delta)  # the farther joins stay off the border
     return close_breaks(out, want, cfg.free_reach * s.lv.delta, rim=rim, side=s.side), want
+
+
+def _positions(out: CurveGraph, m, s: _Level, cfg: CurveConfig) -> torch.Tensor:
+    """Eq. 15: least-squares positions; where some free samples land outside the user's
+    domain shape, solved again with them pulled toward its border (the domain term), so that
+    their strokes bend inside with them instead of being cut. Shape: -> (N, 2)."""
+    huber = cfg.huber * s.lv.delta
+    pos = assign_positions(out.pos, m, s.inp.pos, huber=huber)
+    pos[: s.n_fixed] = out.pos[: s.n_fixed]
+    if s.pull is None:
+        return pos
+    away = ~s.inside(pos)
+    away[: s.n_fixed] = False
+    idx = torch.nonzero(away).flatten()
+    if len(idx) == 0:
+        return pos
+    target = s.pull.project(pos[idx])
+    pos = assign_positions(out.pos, m, s.inp.pos, huber=huber,
+                           anchor=(idx, target, cfg.domain_pull))
+    pos[: s.n_fixed] = out.pos[: s.n_fixed]
+    return pos
 
 
 def _voted_style(out: CurveGraph, m, s: _Level) -> torch.Tensor:
