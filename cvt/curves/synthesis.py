@@ -37,6 +37,7 @@ from cvt.curves.ends import (
     drop_broken,
     end_evidence,
     near_element,
+    paired_share,
     side_by_side,
     unwanted_ends,
 )
@@ -45,7 +46,7 @@ from cvt.curves.graph import CurveGraph, nearest_edges
 from cvt.curves.init import box_inside, patch_init
 from cvt.curves.reconstruction import trace_paths
 from cvt.curves.sampling import exemplar_graph, stroke_graph
-from cvt.curves.similarity import edge_embedding, feature_table
+from cvt.curves.similarity import edge_embedding, edge_sets, feature_table
 from cvt.curves.spacing import curve_levels
 from cvt.curves.strokes import CurveExemplar, Stroke
 from cvt.neighborhood import DistanceParams, neighborhoods, pair_space
@@ -68,6 +69,7 @@ class CurveConfig:
     interior_margin: float = 0.5
     c_out: float = 2.5  # cost of an unmatched output sample, in deltas
     w_edge: float = 0.5  # eq. 5 weight (0 and connectivity=False: the no-connectivity baseline)
+    edge_term: str = "embedding"  # eq. 5 as "embedding" or per-pair "matching" (similarity.py)
     w_style: float = 1.0
     connectivity: bool = True  # edge assignment (eqs. 17-22)
     first_passes: int = 5
@@ -76,6 +78,9 @@ class CurveConfig:
     reach: float = 2.2  # candidate edges join samples closer than this many deltas
     end_reach: float = 4.0  # unwanted stroke ends join within this many deltas (ends.py)
     fragment: int = 6  # broken-off fragments shorter than this many samples go (ends.py)
+    # exemplars with this share of their ends facing another end within end_reach (dashed
+    # strokes, a sketch's broken lines) keep such output pairs apart (ends.py); > 1: never
+    facing_share: float = 0.5
     # exemplars without interior stroke ends (coastlines, rings; fewer than 1 per 100
     # samples): an output end is a defect, so unwanted ends grow (a new sample next to one
     # needs only ``grow`` of the eq. 16 votes; 0.5: off) and join within ``free_reach`` deltas
@@ -113,7 +118,7 @@ class _Level:
 
     lv: Level
     inp: CurveGraph
-    in_emb: torch.Tensor
+    in_emb: object  # the input's edge_embedding, or its edge_sets (edge_term "matching")
     index: tuple  # in_nbr, valid, grid, window0 (cvt.synthesis._input_index)
     inside: Inside
     n_fixed: int
@@ -121,6 +126,7 @@ class _Level:
     capped: np.ndarray  # (N_in,) bool: input ends with a discrete element at them
     deg_in: torch.Tensor  # (N_in,) input degrees, ends cut by the exemplar's canvas as 2
     side: bool  # join unwanted ends side by side (the exemplar has few such ends itself)
+    ahead: bool  # join unwanted ends facing each other (the exemplar has few such pairs)
     pull: Domain | None  # a user's domain shape, for eq. 15's pull (None: no shape, or off)
 
     @property
@@ -184,8 +190,10 @@ def _level_state(lv, inp, cx, cfg, domain, fixed, pull=None) -> _Level:
     keep = torch.zeros(0, 2, dtype=torch.long) if fixed is None else fixed.edges
     deg = run_on_degree(inp, cx.box, lv.delta)
     side = side_by_side(inp, deg.numpy(), cfg.end_reach / 2 * lv.delta) < SIDE_BY_SIDE
-    return _Level(lv, inp, edge_embedding(inp), index, domain, n_fixed, keep,
-                  capped_ends(inp, CAP_REACH * lv.delta), deg, side, pull)
+    ahead = paired_share(inp, deg.numpy(), cfg.end_reach * lv.delta, 0.3) < cfg.facing_share
+    emb = edge_sets(inp, lv.delta) if cfg.edge_term == "matching" else edge_embedding(inp)
+    return _Level(lv, inp, emb, index, domain, n_fixed, keep,
+                  capped_ends(inp, CAP_REACH * lv.delta), deg, side, ahead, pull)
 
 
 def run_on_degree(inp: CurveGraph, box, delta: float) -> torch.Tensor:
@@ -243,7 +251,8 @@ def _rim(pos: torch.Tensor, inside: Inside, margin: float) -> np.ndarray:
 def _search(out: CurveGraph, s: _Level, cfg: CurveConfig, field_, passes: int, gen):
     """PatchMatch over curve neighborhoods (eqs. 7-12; cvt's batched distance)."""
     in_nbr, _, grid, window0 = s.index
-    table = feature_table(out, s.inp, cfg.w_edge, cfg.w_style, in_emb=s.in_emb)
+    table = feature_table(out, s.inp, cfg.w_edge, cfg.w_style, in_emb=s.in_emb,
+                          edge_term=cfg.edge_term, delta=s.lv.delta)
     out_nbr = neighborhoods(out.pos, s.lv.radius, cfg.k_max)
     # w_f = 2: cvt scales the table by w_f / 2, our table already carries its weights
     sp = pair_space(out.pos, out_nbr, s.inp.pos, in_nbr, table,
@@ -267,9 +276,11 @@ def _assign(out: CurveGraph, m, s: _Level, cfg: CurveConfig):
     out = out.with_(edges=assign_edges(m, out, s.inp, cfg.reach * s.lv.delta,
                                        keep=s.fixed_edges))
     if not s.end_free:
-        return close_breaks(out, want, cfg.end_reach * s.lv.delta, side=s.side), want
+        return close_breaks(out, want, cfg.end_reach * s.lv.delta, side=s.side,
+                            ahead=s.ahead), want
     rim = _rim(out.pos, s.inside, 2 * s.lv.delta)  # the farther joins stay off the border
-    return close_breaks(out, want, cfg.free_reach * s.lv.delta, rim=rim, side=s.side), want
+    return close_breaks(out, want, cfg.free_reach * s.lv.delta, rim=rim, side=s.side,
+                        ahead=s.ahead), want
 
 
 def _positions(out: CurveGraph, m, s: _Level, cfg: CurveConfig) -> torch.Tensor:
