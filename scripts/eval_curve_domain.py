@@ -33,6 +33,7 @@ from cvt.curves.reconstruction import curves_svg
 from cvt.curves.strokes import load_curves
 from cvt.curves.synthesis import CurveConfig
 from cvt.limits import DEFAULT as LIMITS
+from neuraltex.imageio import save_pil, stack_rows
 
 ROOT = Path(__file__).resolve().parents[1]
 EXEMPLARS = ROOT / "cvt" / "exemplars" / "curves"
@@ -72,8 +73,9 @@ def border_stats(g: CurveGraph, dom: Domain, delta: float) -> dict[str, float]:
             "samples": float(len(g))}
 
 
-def evaluate(name: str, cfg: CurveConfig, scale: float, svg_dir: Path | None = None
-             ) -> dict[str, dict[str, float]]:
+def evaluate(name: str, cfg: CurveConfig, scale: float, svg_dir: Path | None = None,
+             pictures: dict[str, str] | None = None) -> dict[str, dict[str, float]]:
+    """Both ways' numbers; their SVGs into ``svg_dir`` and ``pictures`` (label -> SVG)."""
     cx = load_curves(EXEMPLARS / f"{name}.svg")
     x, y, w, h = cx.exemplar.viewbox
     size = (scale * w, scale * h)
@@ -89,10 +91,23 @@ def evaluate(name: str, cfg: CurveConfig, scale: float, svg_dir: Path | None = N
         seconds = time.perf_counter() - t
         dom = Domain.of(box_inside(box, inside), box, delta / 4)
         row[label] = {**border_stats(g, dom, delta), "seconds": seconds}
+        svg = curves_svg(cx.exemplar, cx.element_centers(), g, size)
         if svg_dir is not None:
-            (svg_dir / f"{name}.{label}.svg").write_text(
-                curves_svg(cx.exemplar, cx.element_centers(), g, size))
+            (svg_dir / f"{name}.{label}.svg").write_text(svg)
+        if pictures is not None:
+            pictures[f"{name}: {label}"] = svg
     return row
+
+
+def contact_sheet(pictures: dict[str, str], per_row: int = 6, height: int = 200):
+    """The outputs (label -> SVG) rendered, ``per_row`` to a row."""
+    from curve_gallery import labelled, render  # scripts/curve_gallery.py
+
+    items = list(pictures.items())
+    rows = [labelled([render(svg, height) for _, svg in items[k : k + per_row]],
+                     [label for label, _ in items[k : k + per_row]])
+            for k in range(0, len(items), per_row)]
+    return stack_rows(rows, gap=8)
 
 
 KEYS = ("band_density", "band_ends", "inner_ends", "short_pieces", "outside", "samples",
@@ -108,6 +123,8 @@ def main() -> None:
                     help="eq. 15 pull weight to measure against dropping (CurveConfig.domain_pull)")
     ap.add_argument("--out", type=Path, help="also write the markdown table here")
     ap.add_argument("--svg-dir", type=Path, help="keep the output SVGs here")
+    ap.add_argument("--png", type=Path,
+                    help="also write a picture of every output here (drop | pull per exemplar)")
     args = ap.parse_args()
     names = args.names or list(DEFAULT)
     missing = [n for n in names if not (EXEMPLARS / f"{n}.svg").exists()]
@@ -121,19 +138,26 @@ def main() -> None:
     cfg = CurveConfig(seed=args.seed, domain_pull=args.pull)
     lines = ["| exemplar | domain constraint | " + " | ".join(KEYS) + " |",
              "|---" * (len(KEYS) + 2) + "|"]
-    rows = {}
+    rows, pictures = {}, {}
     for name in names:
-        rows[name] = evaluate(name, cfg, args.scale, args.svg_dir)
+        rows[name] = evaluate(name, cfg, args.scale, args.svg_dir, pictures)
         for label, v in rows[name].items():
             lines.append(f"| {name} | {label} | " + " | ".join(
                 f"{v[k]:.0f}" if k in ("short_pieces", "outside", "samples") else f"{v[k]:.2f}"
                 for k in KEYS) + " |")
         print(lines[-2], lines[-1], sep="\n", flush=True)
+    lines.append("")
     for k in ("band_density", "band_ends", "short_pieces"):
         med = {lab: np.median([r[lab][k] for r in rows.values()]) for lab in ("drop", "pull")}
-        lines.append(f"\nmedian {k}: drop {med['drop']:.2f}, pull {med['pull']:.2f}")
+        lines.append(f"- median {k}: drop {med['drop']:.2f}, pull {med['pull']:.2f}")
+    off = {lab: np.median([abs(1 - r[lab]["band_density"]) for r in rows.values()])
+           for lab in ("drop", "pull")}
+    lines.append(f"- median |1 - band_density| (0: the border as full as the inside): "
+                 f"drop {off['drop']:.2f}, pull {off['pull']:.2f}")
     text = "\n".join(lines) + "\n"
     print(text)
+    if args.png:
+        save_pil(contact_sheet(pictures), args.png)
     if args.out:
         args.out.write_text(f"Curves in a disk domain (`python scripts/eval_curve_domain.py "
                             f"--scale {args.scale:g}`), seed {args.seed}: eq. 15's pull "
