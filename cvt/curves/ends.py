@@ -9,10 +9,11 @@ output end with an element near it too.
 Such *unwanted ends* are resolved with local evidence only (no global target):
 
 1. two unwanted ends facing each other within ``reach`` are joined, nearest pairs first (a
-   break closed; a loop whose two ends meet is closed again); two side by side within half
-   ``reach``, whatever their directions, too (the lost tip of a thin U-turn, a peninsula) --
-   unless the exemplar itself has ends side by side (``side_by_side``: hatching bundles,
-   a sketch's dashes), where such a pair is a feature;
+   break closed; a loop whose two ends meet is closed again) -- unless the exemplar's own
+   ends mostly face another end that close (``paired_share``: a sketch's dashed strokes);
+   two side by side within half ``reach``, whatever their directions, too (the lost tip of
+   a thin U-turn, a peninsula) -- unless the exemplar itself has ends side by side
+   (``side_by_side``: hatching bundles, a sketch's dashes), where such a pair is a feature;
 2. the two unwanted ends of one open stroke (both ends of a simple path of at least
    ``3 min_loop`` samples) within twice ``reach`` are joined: a closed stroke that the
    synthesis left open is closed again;

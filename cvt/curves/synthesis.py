@@ -27,7 +27,7 @@ import torch
 from scipy.spatial import cKDTree
 
 from cvt.assignment import assign_positions
-from cvt.curves.domain import Domain, deep_inside
+from cvt.curves.domain import Domain, Inside, deep_inside
 from cvt.curves.edges import assign_edges, expected_degree
 from cvt.curves.ends import (
     CAP_REACH,
@@ -53,8 +53,6 @@ from cvt.neighborhood import DistanceParams, neighborhoods, pair_space
 from cvt.sampling import Level
 from cvt.search import SearchParams, patchmatch
 from cvt.synthesis import _input_index
-
-Inside = Callable[[torch.Tensor], torch.Tensor]
 
 
 @dataclass(frozen=True)
