@@ -20,12 +20,13 @@ from dataclasses import dataclass, replace
 import torch
 
 from cvt.curves.cleanup import prune, repair_ends
+from cvt.curves.domain import Inside
 from cvt.curves.fairing import fair_like
 from cvt.curves.graph import CurveGraph
 from cvt.curves.init import box_inside, patch_init
 from cvt.curves.sampling import exemplar_graph
 from cvt.curves.strokes import CurveExemplar
-from cvt.curves.synthesis import CurveConfig, Inside, synthesize_curves, upsample
+from cvt.curves.synthesis import CurveConfig, synthesize_curves, upsample
 
 METHODS = ("ours", "no-connectivity", "random")
 
