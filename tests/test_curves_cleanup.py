@@ -227,3 +227,14 @@ def test_spurs_far_longer_than_the_exemplars_ticks_are_stubs():
     # where the exemplar's spurs are long themselves, the same tail stays
     ex_long = _graph([_line(50), ticks[0], [[30.0, 50.0], [30.0, 74.0]]])
     assert len(prune(out, ex_long, BOX, BOX, 2.0)) == len(out)
+
+
+def test_smallest_open_piece_of_a_dashed_exemplar():
+    from cvt.curves.cleanup import smallest_open
+
+    dashes = _graph([[[x, 50.0], [x + 4, 50.0]] for x in (20.0, 40.0, 60.0)]  # 3 samples each
+                    + [[[20.0, 70.0], [60.0, 70.0]]])
+    assert smallest_open(dashes, BOX, 2.0) == 3  # the synthesis keeps fragments that long
+    ring = [[50 + 10 * math.cos(t), 30 + 10 * math.sin(t)] for t in np.linspace(0, 6.2, 30)]
+    closed = stroke_graph([Stroke(np.array(ring), True, 0)], STYLE, 2.0)
+    assert smallest_open(closed, BOX, 2.0) == 0  # no open piece: the default stays

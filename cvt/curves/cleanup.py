@@ -78,6 +78,11 @@ def _smallest(size: np.ndarray, where: np.ndarray, default: int) -> int:
     return int(size[ok].min()) if ok.any() else default
 
 
+def smallest_open(exemplar: CurveGraph, box, delta: float) -> int:
+    """Samples of the exemplar's smallest piece with a stroke end inside ``box`` (0: none)."""
+    return _smallest(specks(exemplar, box, 1.5 * delta), open_pieces(exemplar, box, delta), 0)
+
+
 def prune(out: CurveGraph, exemplar: CurveGraph, in_box, out_box, delta: float, keep: int = 0,
           rounds: int = 2) -> CurveGraph:
     """Remove spurs and specks smaller than the exemplar's, and pieces with a stroke end
@@ -93,7 +98,7 @@ def prune(out: CurveGraph, exemplar: CurveGraph, in_box, out_box, delta: float, 
     long_spur = SPUR_SPAN * max(ex_spurs, default=10**9)
     ex_comp = specks(exemplar, in_box, 1.5 * delta)
     min_comp = _smallest(ex_comp, np.ones(len(exemplar), dtype=bool), 3)
-    min_open = _smallest(ex_comp, open_pieces(exemplar, in_box, delta), 0)
+    min_open = smallest_open(exemplar, in_box, delta)
     pads = bool(capped_ends(exemplar, CAP_REACH * delta).any())
     for _ in range(rounds):
         drop = np.zeros(len(out), dtype=bool)

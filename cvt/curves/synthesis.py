@@ -27,6 +27,7 @@ import torch
 from scipy.spatial import cKDTree
 
 from cvt.assignment import assign_positions
+from cvt.curves.cleanup import smallest_open
 from cvt.curves.domain import Domain, Inside, deep_inside
 from cvt.curves.edges import assign_edges, expected_degree
 from cvt.curves.ends import (
@@ -125,6 +126,7 @@ class _Level:
     deg_in: torch.Tensor  # (N_in,) input degrees, ends cut by the exemplar's canvas as 2
     side: bool  # join unwanted ends side by side (the exemplar has few such ends itself)
     ahead: bool  # join unwanted ends facing each other (the exemplar has few such pairs)
+    fragment: int  # broken fragments shorter than this go (ends.drop_broken)
     pull: Domain | None  # a user's domain shape, for eq. 15's pull (None: no shape, or off)
 
     @property
@@ -189,9 +191,11 @@ def _level_state(lv, inp, cx, cfg, domain, fixed, pull=None) -> _Level:
     deg = run_on_degree(inp, cx.box, lv.delta)
     side = side_by_side(inp, deg.numpy(), cfg.end_reach / 2 * lv.delta) < SIDE_BY_SIDE
     ahead = paired_share(inp, deg.numpy(), cfg.end_reach * lv.delta, 0.3) < cfg.facing_share
+    # no shorter than the exemplar's own shortest open pieces (a sketch's dashes)
+    fragment = min(cfg.fragment, smallest_open(inp, cx.box, lv.delta) or cfg.fragment)
     emb = edge_sets(inp, lv.delta) if cfg.edge_term == "matching" else edge_embedding(inp)
     return _Level(lv, inp, emb, index, domain, n_fixed, keep,
-                  capped_ends(inp, CAP_REACH * lv.delta), deg, side, ahead, pull)
+                  capped_ends(inp, CAP_REACH * lv.delta), deg, side, ahead, fragment, pull)
 
 
 def run_on_degree(inp: CurveGraph, box, delta: float) -> torch.Tensor:
@@ -231,7 +235,7 @@ def _run_level(li: int, s: _Level, out: CurveGraph, cfg: CurveConfig, gen, res: 
             out, field_ = _existence(out, m, s, field_, grow, cfg.grow)
         else:  # the domain constraint also holds after the last move
             if cfg.connectivity:
-                out = drop_broken(out, want, cfg.fragment, keep=s.n_fixed,
+                out = drop_broken(out, want, s.fragment, keep=s.n_fixed,
                                   rim=_rim(out.pos, s.inside, 2 * s.lv.delta))
             keep = s.inside(out.pos)
             keep[: s.n_fixed] = True
