@@ -34,7 +34,9 @@ def _votes(out_n: int, m: Matches, in_pos: torch.Tensor):
 
 def assign_positions(pos: torch.Tensor, m: Matches, in_pos: torch.Tensor, mu: float = 0.05,
                      huber: float | None = None, iters: int = 80,
-                     tol: float = 1e-12, torus: Torus | None = None) -> torch.Tensor:
+                     tol: float = 1e-12, torus: Torus | None = None,
+                     anchor: tuple[torch.Tensor, torch.Tensor, float] | None = None
+                     ) -> torch.Tensor:
     """Least-squares positions (seed 000 eq. 18). Shape: pos (N, 2) -> (N, 2).
 
     Solves (L + mu I) p = B^T W w + mu p_old by conjugate gradients, L the weighted Laplacian
@@ -46,7 +48,7 @@ def assign_positions(pos: torch.Tensor, m: Matches, in_pos: torch.Tensor, mu: fl
     """
     n = pos.shape[0]
     a, b, want = _votes(n, m, in_pos)
-    if a.numel() == 0:
+    if a.numel() == 0 and anchor is None:
         return pos.clone()
     dt = torch.float64
     want = want.to(dt)
@@ -62,12 +64,18 @@ def assign_positions(pos: torch.Tensor, m: Matches, in_pos: torch.Tensor, mu: fl
     ar = torch.arange(n)
     rows = torch.cat([a, b, a, b, ar])
     cols = torch.cat([a, b, b, a, ar])
-    vals = torch.cat([wt, wt, -wt, -wt, torch.full((n,), mu, dtype=dt)])
+    diag = torch.full((n,), mu, dtype=dt)
+    rhs = mu * x
+    if anchor is not None:
+        idx, target, weight = anchor
+        diag = diag.index_add(0, idx, torch.full((len(idx),), weight, dtype=dt))
+        rhs = rhs.index_add(0, idx, weight * target.to(dt))
+    vals = torch.cat([wt, wt, -wt, -wt, diag])
     with warnings.catch_warnings():  # "sparse CSR is beta" is not news to us
         warnings.simplefilter("ignore", UserWarning)
         lap = torch.sparse_coo_tensor(torch.stack([rows, cols]), vals, (n, n)).coalesce()
         lap = lap.to_sparse_csr()
-    rhs = (mu * x).index_add(0, a, want).index_add(0, b, -want)  # (N, 2)
+    rhs = rhs.index_add(0, a, want).index_add(0, b, -want)  # (N, 2)
     return _cg(lambda v: lap @ v, rhs, x.clone(), iters, tol).to(pos.dtype)
 
 

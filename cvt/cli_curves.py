@@ -52,7 +52,10 @@ def domain_inside(path, limits):
     from cvt.sampling import _inside
     from cvt.svg import load_svg
 
-    shapes = [s for e in load_svg(path, limits=limits).elements for s in e.shapes if s.filled]
+    ex = load_svg(path, limits=limits)
+    # a shape that covers most of the canvas is split off as background by the parser: it
+    # is still the domain
+    shapes = [s for e in ex.elements + ex.background for s in e.shapes if s.filled]
     if not shapes:
         raise InputError(f"{path}: the domain SVG has no filled shape")
 

@@ -1,13 +1,16 @@
 """Curve similarity, edge and existence assignment, reconstruction."""
 
+import itertools
+
 import numpy as np
+import pytest
 import torch
 
 from cvt.curves.edges import assign_edges, expected_degree
 from cvt.curves.existence import existence
 from cvt.curves.reconstruction import bezier_d, trace_paths
 from cvt.curves.sampling import exemplar_graph
-from cvt.curves.similarity import feature_table
+from cvt.curves.similarity import MAX_EDGES, edge_set_distance, feature_table
 from cvt.curves.strokes import curve_exemplar
 from cvt.neighborhood import neighborhoods
 from cvt.search import Matches
@@ -56,9 +59,10 @@ def test_existence_counts_unmatched_neighborhoods():
     assert xi[victim] < 0.5 and torch.all(xi[torch.arange(len(g)) != victim] == 1)
 
 
-def test_feature_table_edges_styles_and_kinds():
+@pytest.mark.parametrize("edge_term", ["embedding", "matching"])
+def test_feature_table_edges_styles_and_kinds(edge_term):
     g = _graph()
-    t = feature_table(g, g)
+    t = feature_table(g, g, edge_term=edge_term, delta=5.0)
     assert torch.allclose(t.diagonal(), torch.zeros(len(g)).double())
     curve, dot = torch.nonzero(g.kind < 0).flatten()[0], torch.nonzero(g.kind >= 0).flatten()[0]
     assert t[curve, dot] >= 100 and t[dot, curve] >= 100
@@ -66,7 +70,33 @@ def test_feature_table_edges_styles_and_kinds():
     end, mid = torch.nonzero(deg == 1).flatten()[0], torch.nonzero(deg == 2).flatten()[0]
     assert t[end, mid] > 0.5  # one edge unmatched (eq. 5's lambda)
     bare = g.with_(edges=g.edges[:0])
-    assert torch.all(feature_table(bare, g)[g.kind < 0][:, g.kind < 0] == 0)  # lambda = 0
+    bare_t = feature_table(bare, g, edge_term=edge_term, delta=5.0)
+    assert torch.all(bare_t[g.kind < 0][:, g.kind < 0] == 0)  # lambda = 0
+
+
+def _brute_eq5(u, has, v, hv, lam=1.0):
+    """Eq. 5 by listing every one-to-one matching of two small edge sets."""
+    a = [u[j] for j in range(len(u)) if has[j]]
+    b = [v[k] for k in range(len(v)) if hv[k]]
+    best = lam * (len(a) + len(b))  # nothing matched
+    for n in range(1, min(len(a), len(b)) + 1):
+        for ja in itertools.permutations(range(len(a)), n):
+            for kb in itertools.permutations(range(len(b)), n):
+                sq = sum(float(((a[j] - b[k]) ** 2).sum()) for j, k in zip(ja, kb, strict=True))
+                best = min(best, sq + lam * (len(a) + len(b) - 2 * n))
+    return best
+
+
+def test_eq5_matching_is_the_least_cost_one_to_one_matching():
+    gen = torch.Generator().manual_seed(3)
+    u = torch.randn(40, MAX_EDGES, 2, generator=gen, dtype=torch.float64) * 0.7
+    count = torch.randint(0, MAX_EDGES + 1, (40,), generator=gen)
+    has = torch.arange(MAX_EDGES)[None] < count[:, None]  # a sample's edges fill its first slots
+    got = edge_set_distance(u[:10], has[:10], u, has)
+    for p in range(10):
+        for q in range(0, 40, 3):
+            assert abs(float(got[p, q]) - _brute_eq5(u[p], has[p], u[q], has[q])) < 1e-9
+    assert torch.allclose(got[torch.arange(10), torch.arange(10)], torch.zeros(10).double())
 
 
 def test_paths_loop_closed_and_crossing_straight():

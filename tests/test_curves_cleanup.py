@@ -8,7 +8,14 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from cvt.curves.cleanup import drop_fragments, excess_ends, join_ends, prune, repair_ends
+from cvt.curves.cleanup import (
+    drop_fragments,
+    excess_ends,
+    join_ends,
+    prune,
+    repair_ends,
+    spurs,
+)
 from cvt.curves.fairing import chain_neighbors, fair, fair_like, turning
 from cvt.curves.graph import StrokeStyle
 from cvt.curves.sampling import stroke_graph
@@ -205,3 +212,29 @@ def test_open_pieces_smaller_than_the_exemplars_open_ones_go_closed_dots_stay():
     kept = prune(out, ex, BOX, BOX, 2.0)
     assert _ends(kept) == 2 and len(kept) == len(out) - 13  # the tick went, the dot stayed
     assert len(prune(out, ex, BOX, BOX, 2.0, keep=len(out))) == len(out)
+
+
+def test_spurs_far_longer_than_the_exemplars_ticks_are_stubs():
+    # the exemplar's only spurs are 1-sample ticks on a line (a letter's serifs)
+    ticks = [[[x, 50.0], [x, 52.0]] for x in (20.0, 40.0, 60.0)]
+    ex = _graph([_line(50), *ticks])
+    spur_lens = sorted(len(c) for c in spurs(ex, BOX, 4.0))
+    assert spur_lens == [1, 1, 1]
+    long_tail = [[50.0, 50.0], [50.0, 70.0]]  # a 10-sample stroke hanging off the line
+    out = _graph([_line(50), *ticks, long_tail])
+    kept = prune(out, ex, BOX, BOX, 2.0)
+    assert _ends(kept) == _ends(out) - 1 and len(kept) == len(out) - 10
+    # where the exemplar's spurs are long themselves, the same tail stays
+    ex_long = _graph([_line(50), ticks[0], [[30.0, 50.0], [30.0, 74.0]]])
+    assert len(prune(out, ex_long, BOX, BOX, 2.0)) == len(out)
+
+
+def test_smallest_open_piece_of_a_dashed_exemplar():
+    from cvt.curves.cleanup import smallest_open
+
+    dashes = _graph([[[x, 50.0], [x + 4, 50.0]] for x in (20.0, 40.0, 60.0)]  # 3 samples each
+                    + [[[20.0, 70.0], [60.0, 70.0]]])
+    assert smallest_open(dashes, BOX, 2.0) == 3  # the synthesis keeps fragments that long
+    ring = [[50 + 10 * math.cos(t), 30 + 10 * math.sin(t)] for t in np.linspace(0, 6.2, 30)]
+    closed = stroke_graph([Stroke(np.array(ring), True, 0)], STYLE, 2.0)
+    assert smallest_open(closed, BOX, 2.0) == 0  # no open piece: the default stays

@@ -49,6 +49,20 @@ def test_domain_svg(tmp_path):
     assert min(xs) > 30 and max(xs) < 170 and min(ys) > 30 and max(ys) < 170
 
 
+def test_domain_shape_covering_most_of_the_canvas(tmp_path):
+    # the SVG parser splits such a shape off as background; it is still the domain
+    dom = tmp_path / "d.svg"
+    dom.write_text(f"<svg {NS} viewBox='0 0 200 200'><circle cx='100' cy='100' r='96'/></svg>")
+    out = tmp_path / "o.svg"
+    assert main(["synthesize", str(WAVES), "-o", str(out), "--scale", "1", "--domain",
+                 str(dom), *FAST]) == 0
+    nums = [float(v) for d in out.read_text().split(' d="')[1:] for v in
+            d.split('"')[0].translate(str.maketrans("MCZ,", "    ")).split()]
+    xy = zip(nums[0::2], nums[1::2], strict=True)
+    r = [((x - 100) ** 2 + (y - 100) ** 2) ** 0.5 for x, y in xy]
+    assert max(r) < 100 and len(r) > 20
+
+
 def test_autocomplete(tmp_path, capsys):
     part = tmp_path / "p.svg"
     part.write_text(f"<svg {NS} viewBox='0 0 200 200'><path d='M0 40 C 50 30, 80 50, 120 40' "

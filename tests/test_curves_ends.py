@@ -160,3 +160,17 @@ def test_ends_side_by_side_stay_apart_where_the_exemplar_has_them():
     want = _want(tip, 2.0)
     assert len(close_breaks(tip, want, reach=8.0).edges) == len(tip.edges) + 2
     assert len(close_breaks(tip, want, reach=8.0, side=False).edges) == len(tip.edges)
+
+
+def test_facing_ends_stay_apart_where_the_exemplar_is_dashed():
+    from cvt.curves.ends import paired_share
+    from cvt.curves.synthesis import CurveConfig
+
+    dashes = _graph([[[x, y], [x + 10, y]] for x in (10, 26, 42, 58) for y in (30, 60)])
+    share = paired_share(dashes, dashes.degree().numpy(), 8.0, 0.3)
+    assert share >= CurveConfig().facing_share  # the gaps of dashed lines: a feature
+    apart = _graph([[[10, 20], [40, 20]], [[10, 80], [40, 80]]])
+    assert paired_share(apart, apart.degree().numpy(), 8.0, 0.3) == 0.0
+    g = _graph([[[0, 50], [45, 50]], [[51, 50], [100, 50]]])  # a 6-unit break
+    assert len(close_breaks(g, _want(g, 2.0), reach=8.0).edges) == len(g.edges) + 1
+    assert len(close_breaks(g, _want(g, 2.0), reach=8.0, ahead=False).edges) == len(g.edges)

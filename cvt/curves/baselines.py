@@ -20,12 +20,13 @@ from dataclasses import dataclass, replace
 import torch
 
 from cvt.curves.cleanup import prune, repair_ends
+from cvt.curves.domain import Inside
 from cvt.curves.fairing import fair_like
 from cvt.curves.graph import CurveGraph
 from cvt.curves.init import box_inside, patch_init
 from cvt.curves.sampling import exemplar_graph
 from cvt.curves.strokes import CurveExemplar
-from cvt.curves.synthesis import CurveConfig, Inside, synthesize_curves, upsample
+from cvt.curves.synthesis import CurveConfig, synthesize_curves, upsample
 
 METHODS = ("ours", "no-connectivity", "random")
 
@@ -70,13 +71,20 @@ def run_staged(method: str, cx: CurveExemplar, size: tuple[float, float], cfg: C
         out, inp, delta = res.graph, res.inputs[-1], res.delta
     raw = upsample(out, delta)
     return CurveRun(raw, fair_like(raw, inp, cx.box, box, delta),
-                    finish(raw, inp, cx.box, box, delta), delta)
+                    finish(raw, inp, cx.box, box, delta, inside), delta)
 
 
-def finish(raw: CurveGraph, inp: CurveGraph, in_box, out_box, delta: float) -> CurveGraph:
+def finish(raw: CurveGraph, inp: CurveGraph, in_box, out_box, delta: float,
+           inside: Inside | None = None) -> CurveGraph:
     """The clean-up every method gets, on its output redrawn as its SVG will read (``raw``:
     paths re-sampled at ``delta``, crossings and touching ends joined, like the exemplar):
-    stroke spurs / specks pruned and stroke ends repaired to the exemplar's, strokes faired."""
-    g = prune(raw, inp, in_box, out_box, delta)
-    g = repair_ends(g, inp, in_box, out_box, delta)
-    return fair_like(g, inp, in_box, out_box, delta)
+    stroke spurs / specks pruned and stroke ends repaired to the exemplar's, strokes faired.
+    With a domain shape ``inside``, ends at its border are the border's cut (like the
+    canvas'), and what the fairing moved out of it is clipped."""
+    region = out_box if inside is None else box_inside(out_box, inside)
+    g = prune(raw, inp, in_box, region, delta)
+    g = repair_ends(g, inp, in_box, region, delta)
+    g = fair_like(g, inp, in_box, out_box, delta)
+    if inside is None:
+        return g
+    return g.select(torch.nonzero(region(g.pos)).flatten())

@@ -19,12 +19,19 @@ import numpy as np
 import torch
 
 from cvt.curves.closure import close_ends
+from cvt.curves.domain import deep_inside
 from cvt.curves.ends import CAP_REACH, capped_ends, facing_pairs, outward, run_on
 from cvt.curves.graph import CurveGraph, components
 
+SPUR_SPAN = 2  # output spurs longer than this many times the exemplar's longest are stubs
+
 
 def _interior(g: CurveGraph, box, margin: float) -> np.ndarray:
-    """Samples at least ``margin`` inside ``box``. Shape: -> (N,) bool."""
+    """Samples at least ``margin`` inside ``box``: (x0, y0, x1, y1), or a domain predicate
+    (a user's ``--domain`` shape, whose border cuts strokes like the canvas'). Shape: -> (N,)
+    bool."""
+    if callable(box):
+        return deep_inside(g.pos, box, margin)
     pos = g.pos.numpy()
     x0, y0, x1, y1 = box
     return ((pos[:, 0] >= x0 + margin) & (pos[:, 0] <= x1 - margin) & (pos[:, 1] >= y0 + margin)
@@ -71,6 +78,11 @@ def _smallest(size: np.ndarray, where: np.ndarray, default: int) -> int:
     return int(size[ok].min()) if ok.any() else default
 
 
+def smallest_open(exemplar: CurveGraph, box, delta: float) -> int:
+    """Samples of the exemplar's smallest piece with a stroke end inside ``box`` (0: none)."""
+    return _smallest(specks(exemplar, box, 1.5 * delta), open_pieces(exemplar, box, delta), 0)
+
+
 def prune(out: CurveGraph, exemplar: CurveGraph, in_box, out_box, delta: float, keep: int = 0,
           rounds: int = 2) -> CurveGraph:
     """Remove spurs and specks smaller than the exemplar's, and pieces with a stroke end
@@ -79,15 +91,19 @@ def prune(out: CurveGraph, exemplar: CurveGraph, in_box, out_box, delta: float, 
     exemplar's stroke ends are capped by discrete elements (a circuit's pads), a small piece
     with every end capped too is a short lead like the exemplar's, not dust: it stays. The
     first ``keep`` samples (a user's strokes) always stay."""
-    ex_spur = min((len(c) for c in spurs(exemplar, in_box, 2 * delta)), default=10**9)
+    ex_spurs = [len(c) for c in spurs(exemplar, in_box, 2 * delta)]
+    ex_spur = min(ex_spurs, default=10**9)
+    # spurs far longer than the exemplar's longest: a stroke hanging out of a shape whose
+    # only spurs are ticks (a gothic letter's serifs), a stub it does not have
+    long_spur = SPUR_SPAN * max(ex_spurs, default=10**9)
     ex_comp = specks(exemplar, in_box, 1.5 * delta)
     min_comp = _smallest(ex_comp, np.ones(len(exemplar), dtype=bool), 3)
-    min_open = _smallest(ex_comp, open_pieces(exemplar, in_box, delta), 0)
+    min_open = smallest_open(exemplar, in_box, delta)
     pads = bool(capped_ends(exemplar, CAP_REACH * delta).any())
     for _ in range(rounds):
         drop = np.zeros(len(out), dtype=bool)
         for chain in spurs(out, out_box, 2 * delta):
-            if len(chain) < ex_spur:
+            if len(chain) < ex_spur or len(chain) > long_spur:
                 drop[chain] = True
         comp = specks(out, out_box, 1.5 * delta)
         small = (comp < min_comp) | ((comp < min_open) & open_pieces(out, out_box, delta))

@@ -9,10 +9,11 @@ output end with an element near it too.
 Such *unwanted ends* are resolved with local evidence only (no global target):
 
 1. two unwanted ends facing each other within ``reach`` are joined, nearest pairs first (a
-   break closed; a loop whose two ends meet is closed again); two side by side within half
-   ``reach``, whatever their directions, too (the lost tip of a thin U-turn, a peninsula) --
-   unless the exemplar itself has ends side by side (``side_by_side``: hatching bundles,
-   a sketch's dashes), where such a pair is a feature;
+   break closed; a loop whose two ends meet is closed again) -- unless the exemplar's own
+   ends mostly face another end that close (``paired_share``: a sketch's dashed strokes);
+   two side by side within half ``reach``, whatever their directions, too (the lost tip of
+   a thin U-turn, a peninsula) -- unless the exemplar itself has ends side by side
+   (``side_by_side``: hatching bundles, a sketch's dashes), where such a pair is a feature;
 2. the two unwanted ends of one open stroke (both ends of a simple path of at least
    ``3 min_loop`` samples) within twice ``reach`` are joined: a closed stroke that the
    synthesis left open is closed again;
@@ -155,17 +156,25 @@ def _reclose(pos, nbr, ends, done: set[int], reach: float, shortest: int
     return new
 
 
-def side_by_side(g: CurveGraph, deg: np.ndarray, reach: float, min_loop: int = 6) -> float:
-    """Share of the curve ends (``deg`` (N,) == 1) that pair with another end of their
-    style within ``reach``, whatever their directions (ends side by side)."""
+def paired_share(g: CurveGraph, deg: np.ndarray, reach: float, facing: float,
+                 min_loop: int = 6) -> float:
+    """Share of the curve ends (``deg`` (N,) == 1) that pair with another end of their style
+    within ``reach`` whose outward directions point at each other within acos(``facing``)
+    (< -1: whatever their directions, ends side by side)."""
     ends = np.flatnonzero((deg == 1) & (g.kind.numpy() < 0))
     if len(ends) < 2:
         return 0.0
     pos, nbr = g.pos.numpy(), g.adjacency()
-    pairs = [(a, b) for a, b in facing_pairs(pos, ends, outward(pos, nbr, ends), reach, -1.01,
+    pairs = [(a, b) for a, b in facing_pairs(pos, ends, outward(pos, nbr, ends), reach, facing,
                                              g.style.numpy())
              if b not in within_hops(nbr, a, min_loop)]
     return 2 * len(pairs) / len(ends)
+
+
+def side_by_side(g: CurveGraph, deg: np.ndarray, reach: float, min_loop: int = 6) -> float:
+    """Share of the curve ends that pair with another end of their style within ``reach``,
+    whatever their directions (ends side by side)."""
+    return paired_share(g, deg, reach, -1.01, min_loop)
 
 
 SIDE_BY_SIDE = 0.3  # exemplars with this share of ends side by side keep such pairs apart
@@ -173,11 +182,12 @@ SIDE_BY_SIDE = 0.3  # exemplars with this share of ends side by side keep such p
 
 def close_breaks(g: CurveGraph, want: np.ndarray, reach: float, facing: float = 0.3,
                  min_loop: int = 6, rim: np.ndarray | None = None,
-                 side: bool = True) -> CurveGraph:
+                 side: bool = True, ahead: bool = True) -> CurveGraph:
     """Steps 1 to 3 above. ``want`` (N,): eq. 18 expected degrees. Two ends of one stroke
     are only joined when ``min_loop`` or more edges apart (no tiny loops). Ends on the
-    ``rim`` (N,) bool (the domain border, which cuts strokes) are left as they are; ``side``:
-    whether ends side by side are joined too."""
+    ``rim`` (N,) bool (the domain border, which cuts strokes) are left as they are; ``side``
+    and ``ahead``: whether ends side by side, and ends facing each other, are joined (not
+    where the exemplar's own ends pair like that: a sketch's dashes)."""
     ends = unwanted_ends(g, want)
     if rim is not None:
         ends = ends[~rim[ends]]
@@ -186,7 +196,7 @@ def close_breaks(g: CurveGraph, want: np.ndarray, reach: float, facing: float = 
     pos, nbr, style = g.pos.numpy(), g.adjacency(), g.style.numpy()
     away = outward(pos, nbr, ends)
     new = [(a, b) for a, b in facing_pairs(pos, ends, away, reach, facing, style)
-           if b not in within_hops(nbr, a, min_loop)]
+           if b not in within_hops(nbr, a, min_loop)] if ahead else []
     done = {v for e in new for v in e}
     left = np.array([k for k, v in enumerate(ends) if v not in done], dtype=int)
     if side and len(left) > 1:

@@ -8,8 +8,11 @@ the matched neighborhoods do not back are closed after every edge assignment, an
 fragments dropped after each level's last (cvt.curves.ends). The spacings come from
 cvt.curves.spacing (finer for finely detailed strokes). Each level
 after the first starts from the previous level's paths re-sampled at the finer spacing. The
-domain constraint (eqs. 13, 15) is a predicate ``inside``: samples that leave the domain are
-dropped and missing samples are only added inside it. A ``fixed`` graph (autocomplete: what the
+domain constraint (eqs. 13, 15) is a predicate ``inside``: samples that a position assignment
+moves out of a user's domain shape are pulled back toward its border by eq. 15's domain term
+(cvt.curves.domain; ``domain_pull`` 0: dropped, as at the canvas edge, which crops the pattern
+like the exemplar's own crop), samples still outside are dropped, and missing samples are only
+added inside it. A ``fixed`` graph (autocomplete: what the
 user drew) stays where it is, keeps its edges and is never removed; new edges may join it.
 """
 
@@ -24,6 +27,8 @@ import torch
 from scipy.spatial import cKDTree
 
 from cvt.assignment import assign_positions
+from cvt.curves.cleanup import smallest_open
+from cvt.curves.domain import Domain, Inside, deep_inside
 from cvt.curves.edges import assign_edges, expected_degree
 from cvt.curves.ends import (
     CAP_REACH,
@@ -33,6 +38,7 @@ from cvt.curves.ends import (
     drop_broken,
     end_evidence,
     near_element,
+    paired_share,
     side_by_side,
     unwanted_ends,
 )
@@ -41,15 +47,13 @@ from cvt.curves.graph import CurveGraph, nearest_edges
 from cvt.curves.init import box_inside, patch_init
 from cvt.curves.reconstruction import trace_paths
 from cvt.curves.sampling import exemplar_graph, stroke_graph
-from cvt.curves.similarity import edge_embedding, feature_table
+from cvt.curves.similarity import edge_embedding, edge_sets, feature_table
 from cvt.curves.spacing import curve_levels
 from cvt.curves.strokes import CurveExemplar, Stroke
 from cvt.neighborhood import DistanceParams, neighborhoods, pair_space
 from cvt.sampling import Level
 from cvt.search import SearchParams, patchmatch
 from cvt.synthesis import _input_index
-
-Inside = Callable[[torch.Tensor], torch.Tensor]
 
 
 @dataclass(frozen=True)
@@ -64,6 +68,7 @@ class CurveConfig:
     interior_margin: float = 0.5
     c_out: float = 2.5  # cost of an unmatched output sample, in deltas
     w_edge: float = 0.5  # eq. 5 weight (0 and connectivity=False: the no-connectivity baseline)
+    edge_term: str = "embedding"  # eq. 5 as "embedding" or per-pair "matching" (similarity.py)
     w_style: float = 1.0
     connectivity: bool = True  # edge assignment (eqs. 17-22)
     first_passes: int = 5
@@ -72,12 +77,18 @@ class CurveConfig:
     reach: float = 2.2  # candidate edges join samples closer than this many deltas
     end_reach: float = 4.0  # unwanted stroke ends join within this many deltas (ends.py)
     fragment: int = 6  # broken-off fragments shorter than this many samples go (ends.py)
+    # exemplars with this share of their ends facing another end within end_reach (dashed
+    # strokes, a sketch's broken lines) keep such output pairs apart (ends.py); > 1: never
+    facing_share: float = 0.5
     # exemplars without interior stroke ends (coastlines, rings; fewer than 1 per 100
     # samples): an output end is a defect, so unwanted ends grow (a new sample next to one
     # needs only ``grow`` of the eq. 16 votes; 0.5: off) and join within ``free_reach`` deltas
     grow: float = 0.1
     free_reach: float = 8.0
     init_candidates: int = 16  # patches tried per init cell (init.py)
+    # eq. 15 domain term: weight of the pull of a sample outside a user's domain shape toward
+    # its border, in votes (a sample has about 2 k_max of weight 1); 0: such samples dropped
+    domain_pull: float = 2.0
     detail_turn: float = 1.0  # finer spacings for strokes turning faster (spacing.py; 0: off)
     max_halvings: int = 2
     max_exemplar: int = 1500  # finest exemplar samples the finer spacing may reach
@@ -106,7 +117,7 @@ class _Level:
 
     lv: Level
     inp: CurveGraph
-    in_emb: torch.Tensor
+    in_emb: object  # the input's edge_embedding, or its edge_sets (edge_term "matching")
     index: tuple  # in_nbr, valid, grid, window0 (cvt.synthesis._input_index)
     inside: Inside
     n_fixed: int
@@ -114,6 +125,9 @@ class _Level:
     capped: np.ndarray  # (N_in,) bool: input ends with a discrete element at them
     deg_in: torch.Tensor  # (N_in,) input degrees, ends cut by the exemplar's canvas as 2
     side: bool  # join unwanted ends side by side (the exemplar has few such ends itself)
+    ahead: bool  # join unwanted ends facing each other (the exemplar has few such pairs)
+    fragment: int  # broken fragments shorter than this go (ends.drop_broken)
+    pull: Domain | None  # a user's domain shape, for eq. 15's pull (None: no shape, or off)
 
     @property
     def end_free(self) -> bool:
@@ -157,7 +171,9 @@ def run_boxed(cx: CurveExemplar, out_box, cfg: CurveConfig, inside: Inside | Non
     for li, lv in enumerate(levels):
         held = fixed(lv.delta) if fixed is not None else None
         out = _drop_near(out, held, lv.delta) if held is not None else out
-        state = _level_state(lv, res.inputs[li], cx, cfg, domain, held)
+        pull = Domain.of(domain, out_box, lv.delta / 4) \
+            if inside is not None and cfg.domain_pull > 0 else None
+        state = _level_state(lv, res.inputs[li], cx, cfg, domain, held, pull)
         out = _run_level(li, state, out, cfg, gen, res, on_iteration)
         res.samples_per_level.append(len(out))
         if li + 1 < len(levels):
@@ -168,14 +184,18 @@ def run_boxed(cx: CurveExemplar, out_box, cfg: CurveConfig, inside: Inside | Non
     return res
 
 
-def _level_state(lv, inp, cx, cfg, domain, fixed) -> _Level:
+def _level_state(lv, inp, cx, cfg, domain, fixed, pull=None) -> _Level:
     index = _input_index(inp, cx.box, lv, cfg)
     n_fixed = 0 if fixed is None else len(fixed)
     keep = torch.zeros(0, 2, dtype=torch.long) if fixed is None else fixed.edges
     deg = run_on_degree(inp, cx.box, lv.delta)
     side = side_by_side(inp, deg.numpy(), cfg.end_reach / 2 * lv.delta) < SIDE_BY_SIDE
-    return _Level(lv, inp, edge_embedding(inp), index, domain, n_fixed, keep,
-                  capped_ends(inp, CAP_REACH * lv.delta), deg, side)
+    ahead = paired_share(inp, deg.numpy(), cfg.end_reach * lv.delta, 0.3) < cfg.facing_share
+    # no shorter than the exemplar's own shortest open pieces (a sketch's dashes)
+    fragment = min(cfg.fragment, smallest_open(inp, cx.box, lv.delta) or cfg.fragment)
+    emb = edge_sets(inp, lv.delta) if cfg.edge_term == "matching" else edge_embedding(inp)
+    return _Level(lv, inp, emb, index, domain, n_fixed, keep,
+                  capped_ends(inp, CAP_REACH * lv.delta), deg, side, ahead, fragment, pull)
 
 
 def run_on_degree(inp: CurveGraph, box, delta: float) -> torch.Tensor:
@@ -215,7 +235,7 @@ def _run_level(li: int, s: _Level, out: CurveGraph, cfg: CurveConfig, gen, res: 
             out, field_ = _existence(out, m, s, field_, grow, cfg.grow)
         else:  # the domain constraint also holds after the last move
             if cfg.connectivity:
-                out = drop_broken(out, want, cfg.fragment, keep=s.n_fixed,
+                out = drop_broken(out, want, s.fragment, keep=s.n_fixed,
                                   rim=_rim(out.pos, s.inside, 2 * s.lv.delta))
             keep = s.inside(out.pos)
             keep[: s.n_fixed] = True
@@ -227,16 +247,14 @@ def _run_level(li: int, s: _Level, out: CurveGraph, cfg: CurveConfig, gen, res: 
 
 def _rim(pos: torch.Tensor, inside: Inside, margin: float) -> np.ndarray:
     """Samples within ``margin`` of the domain border. Shape: (N, 2) -> (N,) bool."""
-    ok = torch.ones(len(pos), dtype=torch.bool)
-    for d in ((margin, 0.0), (-margin, 0.0), (0.0, margin), (0.0, -margin)):
-        ok &= inside(pos + torch.tensor(d, dtype=pos.dtype))
-    return (~ok).numpy()
+    return ~deep_inside(pos, inside, margin)
 
 
 def _search(out: CurveGraph, s: _Level, cfg: CurveConfig, field_, passes: int, gen):
     """PatchMatch over curve neighborhoods (eqs. 7-12; cvt's batched distance)."""
     in_nbr, _, grid, window0 = s.index
-    table = feature_table(out, s.inp, cfg.w_edge, cfg.w_style, in_emb=s.in_emb)
+    table = feature_table(out, s.inp, cfg.w_edge, cfg.w_style, in_emb=s.in_emb,
+                          edge_term=cfg.edge_term, delta=s.lv.delta)
     out_nbr = neighborhoods(out.pos, s.lv.radius, cfg.k_max)
     # w_f = 2: cvt scales the table by w_f / 2, our table already carries its weights
     sp = pair_space(out.pos, out_nbr, s.inp.pos, in_nbr, table,
@@ -248,8 +266,7 @@ def _assign(out: CurveGraph, m, s: _Level, cfg: CurveConfig):
     """Positions by least squares (eqs. 14-15), then edges (eqs. 17-22) with the breaks the
     matched neighborhoods do not back closed (cvt.curves.ends). Returns the graph and the
     expected degrees (eq. 18). Shape: -> CurveGraph, (N,)."""
-    pos = assign_positions(out.pos, m, s.inp.pos, huber=cfg.huber * s.lv.delta)
-    pos[: s.n_fixed] = out.pos[: s.n_fixed]
+    pos = _positions(out, m, s, cfg)
     out = out.with_(pos=pos, style=_voted_style(out, m, s), source=m.center)
     center = m.center.numpy()
     bare = s.capped[center] & ~near_element(out, CAP_REACH * s.lv.delta) if s.capped.any() \
@@ -261,9 +278,32 @@ def _assign(out: CurveGraph, m, s: _Level, cfg: CurveConfig):
     out = out.with_(edges=assign_edges(m, out, s.inp, cfg.reach * s.lv.delta,
                                        keep=s.fixed_edges))
     if not s.end_free:
-        return close_breaks(out, want, cfg.end_reach * s.lv.delta, side=s.side), want
+        return close_breaks(out, want, cfg.end_reach * s.lv.delta, side=s.side,
+                            ahead=s.ahead), want
     rim = _rim(out.pos, s.inside, 2 * s.lv.delta)  # the farther joins stay off the border
-    return close_breaks(out, want, cfg.free_reach * s.lv.delta, rim=rim, side=s.side), want
+    return close_breaks(out, want, cfg.free_reach * s.lv.delta, rim=rim, side=s.side,
+                        ahead=s.ahead), want
+
+
+def _positions(out: CurveGraph, m, s: _Level, cfg: CurveConfig) -> torch.Tensor:
+    """Eq. 15: least-squares positions; where some free samples land outside the user's
+    domain shape, solved again with them pulled toward its border (the domain term), so that
+    their strokes bend inside with them instead of being cut. Shape: -> (N, 2)."""
+    huber = cfg.huber * s.lv.delta
+    pos = assign_positions(out.pos, m, s.inp.pos, huber=huber)
+    pos[: s.n_fixed] = out.pos[: s.n_fixed]
+    if s.pull is None:
+        return pos
+    away = ~s.inside(pos)
+    away[: s.n_fixed] = False
+    idx = torch.nonzero(away).flatten()
+    if len(idx) == 0:
+        return pos
+    target = s.pull.project(pos[idx])
+    pos = assign_positions(out.pos, m, s.inp.pos, huber=huber,
+                           anchor=(idx, target, cfg.domain_pull))
+    pos[: s.n_fixed] = out.pos[: s.n_fixed]
+    return pos
 
 
 def _voted_style(out: CurveGraph, m, s: _Level) -> torch.Tensor:
