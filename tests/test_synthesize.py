@@ -203,3 +203,14 @@ def test_size_beyond_the_canvas_is_refused_and_spatial_grows(files, tmp_path, ca
     assert main(["interpolate", a, a, "-o", str(out), "--spatial", "--size", "32", "96"]) == 0
     with Image.open(out) as im:
         assert im.size == (96, 32)
+
+
+def test_placed_elements_bring_the_reconstructions_pixels(files, tmp_path):
+    """A texture file's output pastes the reconstruction's pixels over the decode; with
+    --decode-only it is the decode alone (the same arrangement: same seed)."""
+    pasted, decoded = tmp_path / "p.png", tmp_path / "d.png"
+    assert _synth(files, pasted, "--scale", "2", "--seed", "3") == 0
+    assert _synth(files, decoded, "--scale", "2", "--seed", "3", "--decode-only") == 0
+    a = np.asarray(Image.open(pasted), np.float64)
+    b = np.asarray(Image.open(decoded), np.float64)
+    assert a.shape == b.shape and np.abs(a - b).mean() > 1.0
