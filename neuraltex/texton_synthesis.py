@@ -246,7 +246,7 @@ def place(textons: Textons, rows: Tensor, placed: list[tuple[int, float, float]]
     from neuraltex.fit import background_layer
 
     src = rows[torch.tensor([p[0] for p in placed], dtype=torch.long)]  # (P,)
-    shift = torch.tensor([[p[1], p[2]] for p in placed], dtype=textons.dtype)  # (P, 2)
+    shift = torch.tensor([[p[1], p[2]] for p in placed], dtype=textons.dtype).reshape(-1, 2)
     elems = textons.index(src.to(textons.device))
     rank = torch.from_numpy(np.lexsort((np.arange(len(src)), textons.order[0, src].cpu())))
     order = torch.empty_like(rank)

@@ -18,6 +18,7 @@ from neuraltex.texton_synthesis import (
     coverage,
     decode_arranged,
     periodic,
+    place,
     steady_background,
 )
 from tests.conftest import make_textons
@@ -126,6 +127,14 @@ def test_background_covers_the_output_and_fields_travel_with_their_texton():
     shift = torch.tensor([[dx, dy] for _, dx, dy in each], dtype=out.mu.dtype)
     assert torch.allclose(out.mu[0, 1:], t.mu[0, src] + shift)
     assert len(arr.placements) > 2 * 40  # 4.5x the area: many more elements than the input
+
+
+def test_no_placement_leaves_the_background_alone():
+    """An arrangement with nothing on the canvas (a tileable one whose copies all centre
+    outside it) is the background layer alone, not an error."""
+    t = _tiny_texture()
+    out = place(t, torch.arange(1, 41), [], torch.tensor([0]), (2.0, 2.0))
+    assert out.num_textons == 1 and coverage(out, 1) == 0.0
 
 
 def test_groups_or_textons_alone_whichever_covers_like_the_input():
