@@ -18,6 +18,10 @@
 4. :func:`decode_arranged` decodes with the texture's (tuned) decoder at the output size; a
    tileable texture is decoded on a canvas padded with the toroidally repeated textons and
    cropped, so the picture wraps around without a seam (G is convolutional and local).
+5. With the texture's segment labels, :func:`paste_arranged` then draws each placed element
+   from the reconstruction R under its footprint, and fills what the pastes leave uncovered
+   from around the nearest paste (:mod:`neuraltex.element_paste`): G's decode stays only as
+   the ground beneath, so what arrives is as sharp as R draws it.
 """
 
 from __future__ import annotations
