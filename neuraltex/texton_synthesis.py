@@ -18,6 +18,10 @@
 4. :func:`decode_arranged` decodes with the texture's (tuned) decoder at the output size; a
    tileable texture is decoded on a canvas padded with the toroidally repeated textons and
    cropped, so the picture wraps around without a seam (G is convolutional and local).
+5. With the texture's segment labels, :func:`paste_arranged` then draws each placed element
+   from the reconstruction R under its footprint, and fills what the pastes leave uncovered
+   from around the nearest paste (:mod:`neuraltex.element_paste`): G's decode stays only as
+   the ground beneath, so what arrives is as sharp as R draws it.
 """
 
 from __future__ import annotations
@@ -79,6 +83,7 @@ class Arrangement:
     notes: list[str]
     groups: list[list[int]]  # positions into rows of each exemplar element's textons
     result: object = None  # cvt's SynthesisResult (timings, energies)
+    decoded: Tensor | None = None  # (3, H, W) the decode of the arranged textons
 
 
 def layers(textons: Textons, seed: int = 0,
@@ -96,17 +101,31 @@ def layers(textons: Textons, seed: int = 0,
     return elems, kinds[elems], back
 
 
-def texton_colours(model, textons: Textons, short: int) -> tuple[Tensor, Tensor]:
+def own_size(textons: Textons, short: int) -> tuple[int, int]:
+    """(H, W) of the textons' canvas at ``short`` px on its short side: the texture's own size,
+    the pixel pitch its decoder is tuned to."""
+    w, h = textons.canvas
+    return max(1, round(short * h / min(w, h))), max(1, round(short * w / min(w, h)))
+
+
+def reconstruction(model, textons: Textons, short: int) -> Tensor:
+    """The texture decoded at its own size (:func:`own_size`), not clamped. Shape: ->
+    (3, H, W)."""
+    with torch.no_grad():
+        return model.decode(textons, own_size(textons, short))[0]
+
+
+def texton_colours(model, textons: Textons, short: int,
+                   image: Tensor | None = None) -> tuple[Tensor, Tensor]:
     """(colours (K, 3), ground (3,)) in [0, 1]: the mean colour of each texton in the decoded
     texture, weighted by its composited opacity a_i (eq. 4.13), and of what the decoder paints
     where no texton is (weight 1 - sum_i a_i), decoded at the texture's own ``short`` side
-    (the decoder is tuned to that pixel pitch)."""
+    (the decoder is tuned to that pixel pitch; ``image``: that decode (3, H, W), if at hand)."""
     from neuraltex.splatting import splat, weighted_sums
 
-    w, h = textons.canvas
-    size = (max(1, round(short * h / min(w, h))), max(1, round(short * w / min(w, h))))
+    size = own_size(textons, short)
     with torch.no_grad():
-        image = model.decode(textons, size)                            # (1, 3, H, W)
+        image = (reconstruction(model, textons, short) if image is None else image)[None]
         ones = textons.f.new_ones(1, textons.num_textons, 1)
         covered = splat(replace(textons, f=ones), size, cutoff=model.cutoff).features[:, :1]
     sums = weighted_sums(textons, torch.cat([image, torch.ones_like(covered)], 1),
@@ -231,7 +250,7 @@ def place(textons: Textons, rows: Tensor, placed: list[tuple[int, float, float]]
     from neuraltex.fit import background_layer
 
     src = rows[torch.tensor([p[0] for p in placed], dtype=torch.long)]  # (P,)
-    shift = torch.tensor([[p[1], p[2]] for p in placed], dtype=textons.dtype)  # (P, 2)
+    shift = torch.tensor([[p[1], p[2]] for p in placed], dtype=textons.dtype).reshape(-1, 2)
     elems = textons.index(src.to(textons.device))
     rank = torch.from_numpy(np.lexsort((np.arange(len(src)), textons.order[0, src].cpu())))
     order = torch.empty_like(rank)
@@ -296,8 +315,7 @@ def steady_background(textons: Textons, background: Tensor, plain: int, short: i
     plain_textons, sprites = split(textons, plain)
     if sprites is None or not len(background):
         return textons
-    w, h = textons.canvas
-    size = (max(1, round(short * h / min(w, h))), max(1, round(short * w / min(w, h))))
+    size = own_size(textons, short)
     sampler = DetailSampler(plain_textons, size, cutoff=cutoff)
     sprites = sprites.clone()
     with torch.no_grad():
@@ -312,16 +330,51 @@ def steady_background(textons: Textons, background: Tensor, plain: int, short: i
     return attach(plain_textons, sprites)
 
 
+def paste_arranged(textons: Textons, rows: Tensor, groups: list[list[int]],
+                   placements: list[tuple[int, float, float]], recon: Tensor,
+                   labels: np.ndarray, short: int, ground: Tensor,
+                   tileable: bool = False) -> Tensor:
+    """``ground`` (3, H, W) with every placement (element, dx, dy) of the elements ``groups``
+    (positions into ``rows`` (E,), texton indices of the input ``textons``) drawn from the
+    reconstruction ``recon`` (3, h, w) under its footprint in ``labels`` (h, w: texton of
+    each pixel) (:mod:`neuraltex.element_paste`), bottom to top in the input's draw order.
+    -> (3, H, W) in [0, 1]."""
+    from neuraltex.element_paste import (
+        cutouts,
+        element_rank,
+        fill_gaps,
+        paste,
+        pixel_placements,
+    )
+
+    rows, recon = rows.cpu().numpy(), recon.clamp(0, 1).cpu()
+    pieces = cutouts(recon, labels, rows, groups, textons.num_textons)
+    rank = element_rank(textons.order[0].cpu().numpy(), rows, groups)
+    placed = pixel_placements(placements, rank, short)
+    pasted = paste(ground.cpu(), pieces, placed, tileable)
+    return fill_gaps(pasted, recon, ground.cpu(), tileable).clamp(0, 1).to(ground)
+
+
 def synthesize_texture(decoder, textons: Textons, short: int, size: tuple[int, int],
                        settings: ArrangeSettings = ArrangeSettings(),
-                       on_iteration: Callable | None = None) -> tuple[Tensor, Arrangement]:
+                       on_iteration: Callable | None = None,
+                       labels: np.ndarray | None = None) -> tuple[Tensor, Arrangement]:
     """(picture (3, H, W), arrangement) of a texture grown to ``size`` = (H, W) at the
-    input's pixel pitch (``short`` px per normalized unit): arrange, then decode."""
+    input's pixel pitch (``short`` px per normalized unit): arrange, then decode; with the
+    texture's ``labels`` (h, w; texton of each pixel, a texture file's segments) each placed
+    element then brings the reconstruction's pixels under its footprint
+    (:func:`paste_arranged`; the decode stays as the ground between them, and in
+    ``arr.decoded``)."""
     plain = decoder.generator.feature_channels - 2
-    colours = texton_colours(decoder, textons, short)
-    textons = steady_background(textons, layers(textons, settings.seed, plain)[2], plain, short,
-                                decoder.cutoff)
+    recon = reconstruction(decoder, textons, short)
+    colours = texton_colours(decoder, textons, short, recon)
+    steady = steady_background(textons, layers(textons, settings.seed, plain)[2], plain, short,
+                               decoder.cutoff)
     canvas = (size[1] / short, size[0] / short)
-    arr = arrange(textons, canvas, colours, settings, on_iteration, plain)
+    arr = arrange(steady, canvas, colours, settings, on_iteration, plain)
     image = decode_arranged(decoder, arr.textons, size, settings.tileable, len(arr.background))
+    arr.decoded = image
+    if labels is not None:
+        image = paste_arranged(textons, arr.rows, arr.groups, arr.placements, recon, labels,
+                               short, image, settings.tileable)
     return image, arr

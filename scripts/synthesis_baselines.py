@@ -2,8 +2,9 @@
 
 Baselines, each at the output size:
 - ``tiling``: the input repeated (2 x 2 for 512 px from 256 px), cropped;
-- ``random placement``: the input's element textons, as many per area as in the input, at
-  uniform random positions, over the same stretched background layer, same decoder;
+- ``random placement``: the elements ours arranged (texton groups, or textons alone), as many
+  per area as in the input, at uniform random positions, over the same stretched background
+  layer, same decoder, then the same paste of the reconstruction's pixels as ours;
 - ``quilting``: image quilting (Efros and Freeman, SIGGRAPH 2001): square blocks in raster
   order, each the best-matching input block on its overlaps (within ``TOLERANCE`` of the best
   error, or among the ``CHOICES`` best, chosen at random), joined along the minimum-error
@@ -40,20 +41,22 @@ def tiling(image: np.ndarray, size: tuple[int, int]) -> np.ndarray:
     return np.tile(image, reps)[: size[0], : size[1]]
 
 
-def random_placement(textons, rows, background, size: tuple[int, int], short: int,
+def random_placement(textons, rows, groups: list[list[int]], size: tuple[int, int], short: int,
                      seed: int = 0):
-    """Placements (row, dx, dy) of the element textons ``rows`` at uniform random centres over
-    the output canvas, as many per area as in the input (for neuraltex.texton_synthesis.place).
-    """
+    """Placements (element, dx, dy) of the elements ``groups`` (positions into the texton
+    indices ``rows``: ours' elements) with their centres (the mean of their textons' mu) at
+    uniform random points of the output canvas, as many per area as in the input (for
+    neuraltex.texton_synthesis.place and paste_arranged)."""
     g = np.random.default_rng(seed)
     w, h = size[1] / short, size[0] / short
     cw, ch = textons.canvas
-    n = round(len(rows) * w * h / (cw * ch))
-    pick = g.integers(len(rows), size=n)
-    mu = textons.mu[0, rows[pick]].numpy()
+    n = round(len(groups) * w * h / (cw * ch))
+    pick = g.integers(len(groups), size=n)
+    mu = textons.mu[0].detach().cpu().numpy()[np.asarray(rows)]  # (E, 2)
+    centre = np.stack([mu[groups[k]].mean(0) for k in pick]) if n else np.zeros((0, 2))
     to = g.uniform([0, 0], [w, h], size=(n, 2))
     return [(int(k), float(t[0] - m[0]), float(t[1] - m[1]))
-            for k, m, t in zip(pick, mu, to, strict=True)]
+            for k, m, t in zip(pick, centre, to, strict=True)]
 
 
 def _overlap_errors(image: np.ndarray, out: np.ndarray, y: int, x: int, b: int) -> np.ndarray:

@@ -18,6 +18,7 @@ from neuraltex.texton_synthesis import (
     coverage,
     decode_arranged,
     periodic,
+    place,
     steady_background,
 )
 from tests.conftest import make_textons
@@ -128,6 +129,14 @@ def test_background_covers_the_output_and_fields_travel_with_their_texton():
     assert len(arr.placements) > 2 * 40  # 4.5x the area: many more elements than the input
 
 
+def test_no_placement_leaves_the_background_alone():
+    """An arrangement with nothing on the canvas (a tileable one whose copies all centre
+    outside it) is the background layer alone, not an error."""
+    t = _tiny_texture()
+    out = place(t, torch.arange(1, 41), [], torch.tensor([0]), (2.0, 2.0))
+    assert out.num_textons == 1 and coverage(out, 1) == 0.0
+
+
 def test_groups_or_textons_alone_whichever_covers_like_the_input():
     t = _tiny_texture()
     arr = arrange(t, (2.0, 2.0), _colours(t), ArrangeSettings(iterations=1))
@@ -203,3 +212,14 @@ def test_size_beyond_the_canvas_is_refused_and_spatial_grows(files, tmp_path, ca
     assert main(["interpolate", a, a, "-o", str(out), "--spatial", "--size", "32", "96"]) == 0
     with Image.open(out) as im:
         assert im.size == (96, 32)
+
+
+def test_placed_elements_bring_the_reconstructions_pixels(files, tmp_path):
+    """A texture file's output pastes the reconstruction's pixels over the decode; with
+    --decode-only it is the decode alone (the same arrangement: same seed)."""
+    pasted, decoded = tmp_path / "p.png", tmp_path / "d.png"
+    assert _synth(files, pasted, "--scale", "2", "--seed", "3") == 0
+    assert _synth(files, decoded, "--scale", "2", "--seed", "3", "--decode-only") == 0
+    a = np.asarray(Image.open(pasted), np.float64)
+    b = np.asarray(Image.open(decoded), np.float64)
+    assert a.shape == b.shape and np.abs(a - b).mean() > 1.0

@@ -19,8 +19,11 @@ def cmd_synthesize(args: argparse.Namespace) -> int:
     """Grow a texture: its textons (of an image, or of a texture file from ``neuraltex fit``,
     decoded with its tuned decoder) are arranged on a larger canvas by cvt's synthesis, as
     Gaussian elements (the textons of one object together, or one by one: whichever covers
-    the canvas like the input) with their size and colour, and decoded at the output size.
-    With --tileable the arrangement wraps around and so does the decode."""
+    the canvas like the input) with their size and colour, and decoded at the output size;
+    then each placed element brings the pixels of the texture's reconstruction under its
+    footprint (its segments and a margin of ground), so it arrives as sharp as the
+    reconstruction draws it. With --tileable the arrangement wraps around, and so do the
+    decode and the pasted pixels."""
     from neuraltex.imageio import check_output_path
 
     check_output_path(args.output)
@@ -30,7 +33,7 @@ def cmd_synthesize(args: argparse.Namespace) -> int:
     tex = common.textons_of(model, args.texture, common.limits(args), args.device)
     decoder, (textons,) = common.decoder_for(model, tex)
     size = _size(args, textons.canvas, tex.short)
-    image, arr = _synthesize(args, decoder, textons, size, tex.short)
+    image, arr = _synthesize(args, decoder, textons, size, tex.short, _labels(tex, args))
     common.save(image, args.output)
     if args.preview_textons is not None:
         _write_svg(arr, args.preview_textons, size, tex.short)
@@ -54,7 +57,17 @@ def _size(args: argparse.Namespace, canvas: tuple[float, float], short: int) -> 
     return common.limits(args).check_output(h, w)
 
 
-def _synthesize(args, decoder, textons, size: tuple[int, int], short: int):
+def _labels(tex: common.Texture, args: argparse.Namespace):
+    """(h, w) texton of each pixel of the texture: a texture file's segments, an image's
+    most likely mask; None with --decode-only."""
+    if args.decode_only:
+        return None
+    if tex.labels is not None:
+        return tex.labels
+    return None if tex.masks is None else tex.masks.argmax(0).cpu().numpy()
+
+
+def _synthesize(args, decoder, textons, size: tuple[int, int], short: int, labels=None):
     """(image (3, H, W), Arrangement) with a progress bar over the synthesis iterations."""
     from tqdm import tqdm
 
@@ -73,7 +86,7 @@ def _synthesize(args, decoder, textons, size: tuple[int, int], short: int):
             bar.set_description("decoding")
 
     try:
-        image, arr = synthesize_texture(decoder, textons, short, size, settings, tick)
+        image, arr = synthesize_texture(decoder, textons, short, size, settings, tick, labels)
     finally:
         bar.close()
     return image, arr
@@ -119,4 +132,7 @@ def add_commands(sub) -> None:
                    help="also write the arranged textons as SVG ellipses")
     p.add_argument("--iterations", type=types.integer(1, 50), default=3,
                    help="synthesis iterations (search + assignment) per level (default 3)")
+    p.add_argument("--decode-only", action="store_true",
+                   help="paint the arranged textons with the decoder only (no pixels of the "
+                   "reconstruction pasted under the placed elements)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
