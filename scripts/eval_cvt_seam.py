@@ -54,11 +54,14 @@ def swd_ratio(values: np.ndarray, at: np.ndarray) -> np.ndarray:
 MEASURES = {"patch SWD": swd_ratio, "colour step": step_ratio}
 
 
-def lines_of(image: np.ndarray) -> dict:
+def lines_of(image: np.ndarray, measures) -> dict:
     """Per measure, the per-line values of both axes. Shape: (H, W, 3) -> {name: ((n0,), (n1,))}."""
-    maps = _projected(image)
-    swd = tuple(line_swd(maps, axis, np.arange(0, image.shape[axis], STEP)) for axis in (1, 0))
-    return {"patch SWD": swd, "colour step": step_profile(image)}
+    out = {"colour step": step_profile(image)}
+    if "patch SWD" in measures:
+        maps = _projected(image)
+        out["patch SWD"] = tuple(line_swd(maps, axis, np.arange(0, image.shape[axis], STEP))
+                                 for axis in (1, 0))
+    return out
 
 
 def render(path: Path, width: int) -> np.ndarray:
@@ -86,6 +89,9 @@ def main() -> None:
                     help="px cut off the tiles at the seam for the misaligned tiles (default 4)")
     ap.add_argument("--rolls", type=int, default=2000,
                     help="draws of the seamless reference (default 2000)")
+    ap.add_argument("--measures", nargs="+", choices=tuple(MEASURES), default=tuple(MEASURES),
+                    metavar="M", help="patch SWD (about 3 CPU s a tile) and/or colour step "
+                    "(default both; quote each)")
     args = ap.parse_args()
     if args.width < 4 * STEP or not 0 < args.shift < args.width // 4 or args.rolls < 1:
         ap.error("need --width >= 32, 0 < --shift < width / 4 and --rolls >= 1")
@@ -96,14 +102,15 @@ def main() -> None:
         if kind is None:
             continue
         image = render(path, args.width)
-        sets[kind][name].append(lines_of(image))
+        sets[kind][name].append(lines_of(image, args.measures))
         if kind == "tileable":
-            sets["misaligned"][name].append(lines_of(misaligned(image, args.shift)))
+            sets["misaligned"][name].append(lines_of(misaligned(image, args.shift),
+                                                     args.measures))
         print(f"{path.name}", file=sys.stderr, flush=True)
     if not sets["tileable"]:
         print(f"no tileable tile (*--tileable-*.svg) in {args.folder}", file=sys.stderr)
         sys.exit(2)
-    for measure in MEASURES:
+    for measure in args.measures:
         report(sets, measure, args)
 
 
