@@ -1,5 +1,7 @@
-"""The seam of tileable outputs measured with little noise: per-line patch SWD and colour step,
-pooled over many tiles, beside their seamless reference and two kinds of real seams.
+"""The seam of tileable outputs, pooled over many tiles, beside seamless and real seams.
+
+Per-line patch SWD and colour step, pooled over many tiles, beside their seamless reference
+and two kinds of real seams.
 
     python scripts/eval_cvt.py --real --only emoji_ --extra=--tileable --seam-cache DIR
     python scripts/eval_cvt_seam.py DIR            # the tiles of all seeds in DIR

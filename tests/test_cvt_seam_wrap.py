@@ -1,4 +1,5 @@
-"""scripts/eval_cvt_wrap.py: elements at the wrap lines of a tile, counted from its SVG."""
+"""scripts/eval_cvt_wrap.py (elements at the wrap lines, counted from the SVG) and
+scripts/eval_cvt_seam.py (the seam pooled over tiles) on tiny tiles."""
 
 import sys
 from pathlib import Path
@@ -53,3 +54,29 @@ def test_a_wrapped_copy_written_with_six_digits_is_still_one_element(tmp_path):
     # the seamless reference: the wrap line moved to every other line reads the mean
     lines = np.arange(cross.shape[-1])[:, None, None].repeat(2, 2)  # (L, 1, 2)
     assert np.isclose(wrap_ratio(cross[None].astype(float), lines).mean(0), 1).all()
+
+
+def test_eval_cvt_seam_reads_a_seamless_tile_and_flags_its_plain_twin(tmp_path, capsys,
+                                                                      monkeypatch):
+    sys.path.insert(0, str(ROOT / "scripts"))
+    import eval_cvt_seam
+
+    rng = np.random.default_rng(0)
+    for seed in (1, 2):
+        body = plain = ""
+        for x, y in rng.uniform(0, 100, (25, 2)):
+            rect = '<rect x="{:.3f}" y="{:.3f}" width="12" height="12" fill="#c33"/>'
+            plain += rect.format(x, y)
+            body += "".join(rect.format(x + i, y + j) for i in (-100, 0) for j in (-100, 0))
+        for name, content in ((f"t-full--tileable-{seed}.svg", body), (f"t-full-{seed}.svg",
+                                                                        plain)):
+            (tmp_path / name).write_text('<svg xmlns="http://www.w3.org/2000/svg" viewBox="0 '
+                                         f'0 100 100">{content}</svg>')
+    monkeypatch.setattr(sys, "argv", ["eval_cvt_seam.py", str(tmp_path), "--width", "128",
+                                      "--rolls", "50", "--measures", "colour step"])
+    eval_cvt_seam.main()
+    out = capsys.readouterr().out
+    assert "- t: tiles" in out and "pooled over 1 exemplars, 2 tiles" in out
+    tiles = float(out.split("- t: tiles ")[1].split()[0])
+    plain = float(out.split("plain outputs ")[1].split()[0])
+    assert tiles < 1.5 < plain  # the plain tile is cut at its border: a step all along it
