@@ -130,7 +130,8 @@ def _add_pattern_args(syn) -> None:
                      help="clip elements crossing the canvas (or domain) border")
     pat.add_argument("--tileable", action="store_true",
                      help="make the output repeat seamlessly when tiled (the synthesis and the "
-                     "canvas repair run on a torus: neighbourhoods wrap around)")
+                     "canvas repair run on a torus: neighbourhoods wrap around); a lattice "
+                     "exemplar's output size is snapped to whole periods (said on stderr)")
     pat.add_argument("--domain", metavar="SHAPE.svg",
                      help="fill the closed region of this SVG's shapes (fitted into the "
                      "output canvas) instead of the rectangle")

@@ -24,6 +24,8 @@ MIN_EXPLAINED = 0.85
 MAX_CANDIDATES = 4000
 PROBE = 48  # elements a candidate is first tried on
 TOL = 0.2  # match distance, in nearest-neighbour distances (near-periodic: jitter allowed)
+AXIS_CELLS = 16  # tileable output: lattice steps searched for a period along each canvas axis
+AXIS_TOL = 0.02  # ... off the axis by at most this share of the shorter period
 
 
 @dataclass(frozen=True)
@@ -173,6 +175,33 @@ def lattice_copies(lat: Lattice, boxes: np.ndarray, out_box) -> list[tuple[int, 
         touch = ((moved[:, 0] < x1) & (moved[:, 2] > x0) & (moved[:, 1] < y1) & (moved[:, 3] > y0))
         out += [(int(r), float(s[0]), float(s[1])) for s in shift[touch]]
     return out
+
+
+def axis_periods(lat: Lattice) -> tuple[Lattice, np.ndarray] | None:
+    """The shortest lattice vectors along the canvas axes, (W, 0) and (0, H), and the lattice
+    moved (by its jitter at most) so that they are exact: a tileable canvas of n W x m H then
+    repeats the lattice without a step at the wrap. None when no lattice vector within
+    AXIS_CELLS steps lies along an axis (an oblique lattice of irrational slope). Returns
+    (lattice, (W, H)).
+
+    On such a canvas :func:`lattice_copies` is a seamless tile as it is: it draws the plane's
+    copies in the plane's order (by motif, then row and column, an order that translation
+    keeps), and the plane repeats every W and H."""
+    basis = np.stack([lat.a, lat.b])  # (2, 2), rows a, b
+    r = np.arange(-AXIS_CELLS, AXIS_CELLS + 1)
+    ij = np.stack(np.meshgrid(r, r), -1).reshape(-1, 2)  # (K, 2)
+    v = ij @ basis  # (K, 2)
+    tol = AXIS_TOL * min(np.linalg.norm(lat.a), np.linalg.norm(lat.b))
+    steps = []
+    for axis in (0, 1):
+        along = (np.abs(v[:, 1 - axis]) <= tol) & (v[:, axis] > tol)
+        if not along.any():
+            return None
+        steps.append(np.nonzero(along)[0][np.argmin(v[along, axis])])
+    n = ij[steps].astype(float)  # (2, 2): (W, 0) = n[0] @ basis, (0, H) = n[1] @ basis
+    period = np.array([v[steps[0], 0], v[steps[1], 1]])
+    a, b = np.linalg.solve(n, np.diag(period))  # rows: the basis with those vectors exact
+    return Lattice(a, b, lat.reps, lat.explained), period
 
 
 def _explained(lat: Lattice, centers, kinds, boxes, whole, viewbox, tol) -> float:

@@ -6,7 +6,8 @@
    the canvas or the domain, each kind at the exemplar's density.
 3. ``tileable``: the seed's method runs on a torus (cvt.torus: toroidal neighbourhoods,
    search, assignment and clustering), the canvas repair wraps around too, and the result is
-   drawn periodically (cvt.tileable).
+   drawn periodically (cvt.tileable). A lattice is tiled on the nearest canvas of whole
+   periods instead (cvt.lattice.axis_periods; the size change is noted).
 
 The background (cvt.background) is drawn under it all by :func:`pattern_svg`.
 """
@@ -31,12 +32,19 @@ from cvt.companions import companion_kinds, drop_orphans
 from cvt.density import fragment_owners
 from cvt.domain import Domain
 from cvt.kinds import cut_mask, element_kinds, exact_kinds
-from cvt.lattice import detect_lattice, lattice_copies
+from cvt.lattice import (
+    AXIS_CELLS,
+    Lattice,
+    axis_periods,
+    detect_lattice,
+    lattice_copies,
+)
 from cvt.reconstruction import Placement
 from cvt.svg import Exemplar, to_svg
 from cvt.synthesis import SynthesisConfig, SynthesisResult
 from cvt.tileable import wrap_around, wrap_centres
 from cvt.torus import Torus
+from neuraltex.errors import InputError
 
 
 @dataclass(frozen=True)
@@ -76,45 +84,72 @@ def synthesize_pattern(ex: Exemplar, size: tuple[float, float], cfg: SynthesisCo
     if method == "random":
         res = run_method(method, ex, size, cfg)
         return Pattern(_placed(res), size, notes, res)
-    placed, res, lat = _arrange(ex, size, cfg, method, opts, boxes, cut, kinds, notes,
-                                on_iteration)
-    inside = opts.domain.contains if opts.domain is not None else None
-    torus = Torus.of(out_box) if opts.tileable else None
-    if torus is not None:  # no border to cut fragments on a torus
-        placed = wrap_centres([p for p in placed if not cut[p[0]]], boxes, out_box)
-    placed = keep_on_canvas(placed, boxes, cut, out_box, inside)
-    if opts.density and (lat is None or opts.domain is not None or opts.tileable):
-        area = opts.domain.area if opts.domain is not None else size[0] * size[1]
-        groups = composites(boxes, cut) if opts.kinds is None else [[e] for e in range(len(kinds))]
-        placed = _repair(placed, ex, boxes, cut, kinds, groups, out_box, area, cfg.seed, inside,
-                         torus)
-    if opts.tileable:
-        placed = wrap_around(placed, boxes, out_box)
-    return Pattern(placed, size, notes, res, lat)
-
-
-def _arrange(ex, size, cfg, method, opts, boxes, cut, kinds, notes, on_iteration):
-    """Placements from the lattice, the seed's method, or none. Returns (placed, result,
-    lattice) and appends what it did to ``notes``."""
-    vx, vy = ex.viewbox[:2]
-    lat = None
-    if opts.lattice:
-        centers = (boxes[:, :2] + boxes[:, 2:]) / 2
-        # translated copies first (mirrored rows are two motifs), then copies of a kind
-        lat = (detect_lattice(centers, exact_kinds(ex.elements, kinds), boxes, ~cut, ex.viewbox)
-               or detect_lattice(centers, kinds, boxes, ~cut, ex.viewbox))
+    lat = _lattice(ex, boxes, cut, kinds) if opts.lattice else None
     if lat is not None:
         notes.append(f"lattice: periods ({lat.a[0]:.4g}, {lat.a[1]:.4g}) and ({lat.b[0]:.4g}, "
                      f"{lat.b[1]:.4g}), {len(lat.reps)} motif(s) per cell, explains "
                      f"{lat.explained:.0%} of the exemplar")
-        return lattice_copies(lat, boxes, (vx, vy, vx + size[0], vy + size[1])), None, lat
+    if lat is not None and opts.tileable:  # the tile must hold whole periods
+        lat, size = _lattice_tile(lat, size, notes)
+        out_box = (vx, vy, vx + size[0], vy + size[1])
+    placed, res = _arrange(ex, size, cfg, method, opts, lat, boxes, cut, notes, on_iteration)
+    inside = opts.domain.contains if opts.domain is not None else None
+    # a lattice on whole periods is periodic already (cvt.lattice.axis_periods); wrapping its
+    # copies would draw the ones crossing the seam over their neighbours there
+    torus = Torus.of(out_box) if opts.tileable and lat is None else None
+    if torus is not None:  # no border to cut fragments on a torus
+        placed = wrap_centres([p for p in placed if not cut[p[0]]], boxes, out_box)
+    placed = keep_on_canvas(placed, boxes, cut, out_box, inside)
+    if opts.density and (lat is None or opts.domain is not None):
+        area = opts.domain.area if opts.domain is not None else size[0] * size[1]
+        groups = composites(boxes, cut) if opts.kinds is None else [[e] for e in range(len(kinds))]
+        placed = _repair(placed, ex, boxes, cut, kinds, groups, out_box, area, cfg.seed, inside,
+                         torus)
+    if torus is not None:
+        placed = wrap_around(placed, boxes, out_box)
+    return Pattern(placed, size, notes, res, lat)
+
+
+def _lattice(ex, boxes, cut, kinds) -> Lattice | None:
+    """The exemplar's lattice (cvt.lattice): translated copies first (mirrored rows are two
+    motifs), then copies of a kind."""
+    centers = (boxes[:, :2] + boxes[:, 2:]) / 2
+    return (detect_lattice(centers, exact_kinds(ex.elements, kinds), boxes, ~cut, ex.viewbox)
+            or detect_lattice(centers, kinds, boxes, ~cut, ex.viewbox))
+
+
+def _lattice_tile(lat: Lattice, size, notes) -> tuple[Lattice, tuple[float, float]]:
+    """A tileable lattice output: the lattice made exact along the canvas axes and ``size``
+    snapped to the nearest whole number of its periods (said in ``notes``), so the tiling
+    has no step at the seam; InputError when the lattice has no period along an axis."""
+    fit = axis_periods(lat)
+    if fit is None:
+        raise InputError(f"--tileable: the exemplar's lattice (periods ({lat.a[0]:.4g}, "
+                         f"{lat.a[1]:.4g}) and ({lat.b[0]:.4g}, {lat.b[1]:.4g})) repeats along "
+                         f"no canvas axis within {AXIS_CELLS} cells; use --no-lattice")
+    lat, period = fit
+    snapped = tuple(float(max(1, round(s / p)) * p) for s, p in zip(size, period, strict=True))
+    if not np.allclose(snapped, size, rtol=1e-9, atol=0):
+        notes.append(f"tileable lattice: output size {size[0]:.6g} x {size[1]:.6g} snapped to "
+                     f"{snapped[0]:.6g} x {snapped[1]:.6g} (whole periods {period[0]:.6g} x "
+                     f"{period[1]:.6g})")
+    return lat, snapped
+
+
+def _arrange(ex, size, cfg, method, opts, lat, boxes, cut, notes, on_iteration):
+    """Placements from the lattice ``lat``, the seed's method, or none. Returns (placed,
+    result) and appends what it did to ``notes``."""
+    vx, vy = ex.viewbox[:2]
+    out_box = (vx, vy, vx + size[0], vy + size[1])
+    if lat is not None:
+        return lattice_copies(lat, boxes, out_box), None
     if (~cut).sum() >= 2:
         cfg = dataclasses.replace(cfg, tileable=opts.tileable)
         res = run_method(method, ex, size, cfg, on_iteration)
         notes.append(f"no lattice: {method} synthesis" + (" on a torus" if opts.tileable else ""))
-        return _placed(res), res, None
+        return _placed(res), res
     notes.append("fewer than two whole elements: placed at the exemplar's density")
-    return [], None, None
+    return [], None
 
 
 def _repair(placed, ex, boxes, cut, kinds, groups, out_box, area, seed, inside, torus=None):

@@ -146,6 +146,8 @@ def line_values(image: np.ndarray, every: int = 1) -> tuple[np.ndarray, np.ndarr
 GRID = 2 ** (OCTAVES - 1)  # px between the lines the null reads (the coarsest tap spacing)
 LEVEL = 0.95  # confidence of the seam test
 MARGIN_RATIO = 1.1  # the target: seam within 10 % of the interior
+NEAR = 8  # px: the colour step's controls, either side of the line
+STEP_FLOOR = 1e-3  # a step below this (flat ground on both sides) reads as this
 
 
 def tile_lines(images: list[np.ndarray]) -> list[tuple[np.ndarray, np.ndarray]]:
@@ -163,12 +165,20 @@ def ratios_at(lines: list[tuple[np.ndarray, np.ndarray]], seams: np.ndarray) -> 
     seam, inner = np.zeros(len(seams)), np.zeros(len(seams))
     for t, tile in enumerate(lines):
         for a, values in enumerate(tile):
-            n = len(values)
-            ctrl = np.arange(MARGIN, n * GRID - MARGIN + 1, STEP) // GRID  # (L,) in steps
-            r = seams[:, t, a]  # (D,)
-            seam += values[r] / 2
-            inner += values[(r[:, None] + ctrl[None]) % n].mean(1) / 2
+            s, i = seam_and_inner(values, seams[:, t, a], GRID)
+            seam += s / 2
+            inner += i / 2
     return seam / inner
+
+
+def seam_and_inner(values: np.ndarray, at: np.ndarray, every: int) -> tuple[np.ndarray, np.ndarray]:
+    """A line's value and the mean of its controls (every STEP px from MARGIN to n - MARGIN
+    beyond it), with the seam at line ``at``; ``values`` of every ``every``-th line of one
+    tile axis (``every`` divides STEP). Shape: (n,), (D,) -> (D,), (D,)."""
+    n = len(values)
+    ctrl = np.arange(MARGIN, n * every - MARGIN + 1, STEP) // every  # (L,) in lines
+    at = np.asarray(at)
+    return values[at], values[(at[:, None] + ctrl[None]) % n].mean(1)
 
 
 def rolled_ratios(images: list[np.ndarray], rolls: int = 200, seed: int = 0,
@@ -202,19 +212,59 @@ def detectable(null: np.ndarray, margin: float = MARGIN_RATIO, power: float = 0.
     return float(margin * np.quantile(null, LEVEL) / np.quantile(null, 1 - power))
 
 
-def seam_step(image: np.ndarray, near: int = 8) -> tuple[float, float]:
-    """Mean colour step between the pixel rows (columns) on either side of the seams of the
-    image tiled 2 x 2, and the same between neighbouring rows (columns) within ``near`` pixels
-    of the seams, on either side. Shape: (H, W, 3).
+def step_profile(image: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Mean colour step (summed over channels) across every vertical line (line c: between
+    columns c - 1 and c, wrapping around, so line 0 is the seam of the image tiled) and every
+    horizontal line. Shape: (H, W, 3) -> (W,), (H,)."""
+    return tuple(np.abs(image - np.roll(image, 1, axis)).sum(2).mean(1 - axis)
+                 for axis in (1, 0))
+
+
+def step_ratio(profile: np.ndarray, at: np.ndarray, near: int = NEAR) -> np.ndarray:
+    """The colour step across line ``at`` over the mean step across the lines 1 ... ``near``
+    px either side of it: lines that cross nearly the same motifs, so the content a line
+    crosses cancels out (a line's patch SWD against far controls varies with it, coefficient
+    of variation 0.5-0.7; this ratio 0.2-0.5 on the emoji tiles). Shape: (n,), (D,) -> (D,)."""
+    at = np.asarray(at)
+    side = np.r_[-np.arange(1, near + 1), np.arange(1, near + 1)]  # (2 near,)
+    ctrl = profile[(at[:, None] + side[None]) % len(profile)].mean(1)
+    return profile[at] / np.maximum(ctrl, STEP_FLOOR)
+
+
+def seam_step(image: np.ndarray, near: int = NEAR) -> tuple[float, float]:
+    """Mean colour step across the seams of the image tiled 2 x 2, and the same across the
+    lines within ``near`` pixels of them, on either side. Shape: (H, W, 3).
 
     A seam shows as a step all along the seam line (motifs cut there, gaps, doubled copies);
     in a seamless tiling the seam line is a line like its neighbours, so the two are about
     equal; an extra column beside :func:`seam_ratio`.
     """
-    big = np.tile(image, (2, 2, 1))  # (2H, 2W, 3)
-    h, w = image.shape[:2]
-    steps = []
-    for d, s in ((np.abs(np.diff(big, axis=1)).sum(2).mean(0), w - 1),  # (2W - 1,) columns
-                 (np.abs(np.diff(big, axis=0)).sum(2).mean(1), h - 1)):  # (2H - 1,) rows
-        steps.append((d[s], np.r_[d[s - near : s], d[s + 1 : s + near + 1]].mean()))
-    return float(np.mean([a for a, _ in steps])), float(np.mean([b for _, b in steps]))
+    side = np.r_[-np.arange(1, near + 1), np.arange(1, near + 1)]
+    profiles = step_profile(image)
+    return (float(np.mean([p[0] for p in profiles])),
+            float(np.mean([p[side].mean() for p in profiles])))
+
+
+def pooled_ratios(ratio, tiles: list, at: np.ndarray) -> np.ndarray:
+    """Mean over tiles and axes of ``ratio(values, lines)`` (seam / interior of one tile
+    axis, with the seam at ``lines``): each tile axis weighs the same, whatever the level of
+    its values. ``tiles``: per tile the per-line values of both axes; ``at``: the seam line
+    of tile t, axis a in draw d. Shape: T x ((n0,), (n1,)), at (D, T, 2) -> (D,)."""
+    at = np.asarray(at)
+    return np.mean([ratio(values, at[:, t, a]) for t, tile in enumerate(tiles)
+                    for a, values in enumerate(tile)], axis=0)
+
+
+def rolled_draws(tiles: list, rolls: int = 2000, seed: int = 0) -> np.ndarray:
+    """Random seam lines for :func:`pooled_ratios` (the tiles rolled: no seam by
+    construction). Shape: T x ((n0,), (n1,)) -> (rolls, T, 2)."""
+    rng = np.random.default_rng(seed)
+    return np.stack([np.stack([rng.integers(0, len(v), rolls) for v in tile], -1)
+                     for tile in tiles], 1)
+
+
+def misaligned(image: np.ndarray, shift: int) -> np.ndarray:
+    """The tile with ``shift`` rows and columns cut off at its seam: tiled, the two sides of
+    each seam are ``shift`` px out of register (a tile that does not wrap around).
+    Shape: (H, W, 3) -> (H - shift, W - shift, 3)."""
+    return image[shift:, shift:]

@@ -105,7 +105,8 @@ def main() -> None:
                          "after the first in this folder and reuse them on the next run "
                          "(the judged seed is always synthesized and timed)")
     ap.add_argument("--periodic", action="store_true",
-                    help="--real: only the seam measure of the lattice exemplars' own tiles")
+                    help="--real: only the seam measure of the lattice exemplars' own tiles "
+                         "and of their --tileable outputs at --scale 1.7")
     args = ap.parse_args()
     if args.real and args.periodic:
         from eval_cvt_real import periodic_check

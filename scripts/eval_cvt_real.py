@@ -35,6 +35,8 @@ from cvt.seam import (
 from cvt.svg import load_svg
 from neuraltex.fileio import write_text_atomic
 
+LATTICE_SCALE = 1.7  # --tileable lattice outputs: not a whole number of periods
+
 
 def synthesize(path: Path, out: Path, scale: float, seed: int, method: str, extra: str,
                root: Path) -> tuple[float, float, float, str]:
@@ -204,9 +206,15 @@ def totals(rows: list[dict], tileable: bool = False) -> str:
 
 def periodic_check(root: Path) -> str:
     """The seam ratio of the lattice exemplars' own tiles (exactly periodic), rendered at a
-    whole number of pixels per user unit so that the lattice periods are whole pixels."""
-    out = ["Exactly periodic tiles (the lattice exemplars themselves, whole pixels per unit):",
-           ""]
+    whole number of pixels per user unit so that the lattice periods are whole pixels, and
+    of their ``--tileable`` outputs at an odd scale (LATTICE_SCALE: the size is snapped to
+    whole periods, cvt.lattice.axis_periods) rendered the same way."""
+    from cvt.pattern import PatternOptions, pattern_svg, synthesize_pattern
+    from cvt.synthesis import SynthesisConfig
+
+    out = ["Exactly periodic tiles (the lattice exemplars themselves, whole pixels per unit; "
+           f"their `--tileable --scale {LATTICE_SCALE:g}` outputs beside them):", ""]
+    opts = PatternOptions(tileable=True)
     for path in sorted((root / "data" / "cvt_real").glob("*.svg")):
         if path.stem.startswith("emoji_"):
             continue
@@ -214,6 +222,16 @@ def periodic_check(root: Path) -> str:
         k = max(1, round(2 * PIXELS / ex.viewbox[2]))
         image = _render(path.read_text(), ex.viewbox[2:], ex, round(ex.viewbox[2] * k))
         seam, inner = seam_ratio([image])
-        out.append(f"- {path.stem} ({image.shape[1]} x {image.shape[0]} px): seam {seam:.3f}, "
-                   f"interior {inner:.3f}, ratio {seam / inner:.2f}")
+        line = (f"- {path.stem} ({image.shape[1]} x {image.shape[0]} px): seam {seam:.3f}, "
+                f"interior {inner:.3f}, ratio {seam / inner:.2f}")
+        size = (ex.viewbox[2] * LATTICE_SCALE, ex.viewbox[3] * LATTICE_SCALE)
+        tile = synthesize_pattern(ex, size, SynthesisConfig(seed=1), opts=opts)
+        if tile.lattice is not None:
+            image = _render(pattern_svg(ex, tile, opts), tile.size, ex, round(tile.size[0] * k))
+            seam, inner = seam_ratio([image])
+            line += (f"; tileable {size[0]:.5g} x {size[1]:.5g} -> {tile.size[0]:.5g} x "
+                     f"{tile.size[1]:.5g}: ratio {seam / inner:.2f}")
+        else:
+            line += "; tileable: no lattice (the seed's method on a torus)"
+        out.append(line)
     return "\n".join(out)

@@ -99,3 +99,12 @@ def test_method_and_weight_flags(tmp_path, capsys):
     assert out.read_text().count("<g transform=") > 10
     assert main(["synthesize", str(STARS), "-o", str(out), "--scale", "2", "--w-l", "-1"]) == 2
     assert "--w-l" in capsys.readouterr().err
+
+
+def test_tileable_lattice_says_its_snapped_size(tmp_path, capsys):
+    src = ROOT / "data" / "cvt_real" / "hero_ticTacToe.svg"
+    out = tmp_path / "tile.svg"
+    assert main(["synthesize", str(src), "-o", str(out), "--scale", "1.7", "--tileable"]) == 0
+    err = capsys.readouterr().err
+    assert "output size 326.4 x 326.4 snapped to 320 x 320 (whole periods 64 x 64)" in err
+    assert 'viewBox="0 0 320 320"' in out.read_text()

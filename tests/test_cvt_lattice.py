@@ -102,3 +102,48 @@ def test_mirrored_rows_keep_their_alternation():
     # every placed triangle points the way its row does in the exemplar
     for e, dx, dy in pattern.placements:
         assert round(dy / 10) % 2 == 0, (e, dx, dy)
+
+
+def _render(ex, pattern) -> np.ndarray:
+    """The pattern's SVG at 1 px per unit. Shape: -> (H, W, 3)."""
+    import io
+
+    from PIL import Image
+
+    from cvt.pattern import pattern_svg
+    from cvt.raster import png_bytes
+
+    png = png_bytes(pattern_svg(ex, pattern), width=round(pattern.size[0]))
+    return np.asarray(Image.open(io.BytesIO(png)).convert("RGB"), np.float32) / 255
+
+
+def test_tileable_lattice_at_an_odd_scale_snaps_to_whole_periods_and_tiles_without_seam():
+    from pathlib import Path
+
+    from cvt.pattern import PatternOptions
+    from cvt.svg import load_svg
+
+    ex = load_svg(Path(__file__).parents[1] / "data" / "cvt_real" / "hero_ticTacToe.svg", "auto")
+    cfg = SynthesisConfig(levels=1, iterations=1, seed=0)
+    size = (1.7 * ex.viewbox[2], 1.7 * ex.viewbox[3])  # 326.4: not a whole number of periods
+    tile = synthesize_pattern(ex, size, cfg, opts=PatternOptions(tileable=True))
+    assert tile.size == (320.0, 320.0)  # the nearest whole number (5) of its 64 x 64 periods
+    assert any("snapped to 320 x 320" in n for n in tile.notes)
+    # the tile, tiled 2 x 2, is the lattice itself over the doubled canvas, pixel for pixel
+    plane = synthesize_pattern(ex, (640.0, 640.0), cfg)
+    tiled = np.tile(_render(ex, tile), (2, 2, 1))  # (640, 640, 3)
+    assert np.abs(tiled - _render(ex, plane)).max() < 2 / 255
+    # without --tileable the size is the user's
+    assert synthesize_pattern(ex, size, cfg).size == size
+
+
+def test_axis_periods_make_a_hexagonal_lattice_exact_and_refuse_an_irrational_one():
+    from cvt.lattice import Lattice, axis_periods
+
+    hexa = Lattice(np.array([10.0, 0.0]), np.array([5.0, 8.6603]), np.array([0]), 1.0)
+    lat, period = axis_periods(hexa)
+    assert np.allclose(period, [10.0, 2 * 8.6603])  # 2 b - a lies along y
+    assert np.allclose(2 * lat.b - lat.a, [0.0, period[1]], atol=1e-12)
+    assert np.allclose(lat.b, hexa.b, atol=1e-3)  # moved by its rounding at most
+    skew = Lattice(np.array([10.0, 0.0]), np.array([np.sqrt(2) * 10 / 3, 9.0]), np.array([0]), 1.0)
+    assert axis_periods(skew) is None

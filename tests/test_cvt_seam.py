@@ -133,3 +133,33 @@ def test_the_seam_test_flags_a_cut_and_leaves_seamless_tiles_alone():
     cut = [t[:148, :148] for t in seamless]
     seam, inner = seam_ratio(cut)
     assert seam_test(seam / inner, rolled_ratios(cut, rolls=200)) < 1 - LEVEL
+
+
+def test_colour_step_reads_one_on_a_seamless_tile_and_flags_a_misaligned_one():
+    from cvt.seam import misaligned, pooled_ratios, rolled_draws, step_profile, step_ratio
+
+    tiles = [step_profile(_discs(60, 192, seed=s)) for s in range(4)]  # seamless
+    seam = pooled_ratios(step_ratio, tiles, np.zeros((1, 4, 2), int))[0]
+    null = pooled_ratios(step_ratio, tiles, rolled_draws(tiles, rolls=200))
+    assert abs(seam - 1) < 0.3 and abs(np.median(null) - 1) < 0.1
+    cut = [step_profile(misaligned(_discs(60, 192, seed=s), 3)) for s in range(4)]
+    assert pooled_ratios(step_ratio, cut, np.zeros((1, 4, 2), int))[0] > 1.5
+
+
+def test_step_profile_is_the_step_between_neighbouring_columns_and_rows_wrapping():
+    from cvt.seam import step_profile, step_ratio
+
+    img = np.zeros((4, 6, 3), np.float32)
+    img[:, 3:] = 1.0  # a white right half: steps across columns 2 | 3 and 5 | 0 (the seam)
+    cols, rows = step_profile(img)
+    assert cols.tolist() == [3, 0, 0, 3, 0, 0] and rows.tolist() == [0, 0, 0, 0]
+    assert np.isclose(step_ratio(cols, np.array([0]), near=1)[0], 3 / 1e-3)  # flat: floor
+
+
+def test_pooled_ratios_weigh_every_tile_axis_alike():
+    from cvt.seam import pooled_ratios
+
+    tiles = [(np.array([2.0, 1.0]), np.array([1.0, 1.0])), (np.array([9.0, 9.0]),) * 2]
+    first = lambda v, at: v[at] / v.mean()  # noqa: E731
+    got = pooled_ratios(first, tiles, np.array([[[0, 0], [0, 0]], [[1, 1], [1, 1]]]))
+    assert np.allclose(got, [(4 / 3 + 1 + 1 + 1) / 4, (2 / 3 + 1 + 1 + 1) / 4])
