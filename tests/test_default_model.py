@@ -47,7 +47,7 @@ def test_the_shipped_fit_prior_belongs_to_the_shipped_decoder(model):
     assert header["info"]["iterations_done"] == 400
     G = start_generator(model)
     assert any(not torch.equal(p, q) for p, q in zip(G.parameters(),
-                                                     model.generator.parameters()))
+                                                     model.generator.parameters(), strict=True))
 
 
 def test_encoding_an_easy_benchmark_image_gives_a_plausible_texton_count(model):

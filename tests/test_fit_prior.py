@@ -2,6 +2,7 @@
 untrained export and 32 px procedural textures."""
 
 import json
+from dataclasses import replace
 
 import pytest
 import torch
@@ -9,7 +10,6 @@ import torch
 from neuraltex.fit import FitSettings, fit_texture
 from neuraltex.fit_prior import (
     FitPriorError,
-    attach_prior,
     load_prior,
     prior_path,
     save_prior,
@@ -48,7 +48,7 @@ def test_round_trip_and_start(tmp_path, model):
         assert all(torch.equal(p, params[k]) for k, p in G.named_parameters())
         plain = start_generator(model, use_prior=False)
         assert all(torch.equal(p, q) for p, q in zip(plain.parameters(),
-                                                     model.generator.parameters()))
+                                                     model.generator.parameters(), strict=True))
     finally:
         model.fit_prior = None
 
@@ -88,9 +88,9 @@ def test_fit_starts_from_the_prior_unless_told_not_to(model):
     model.fit_prior = (params, {})
     try:
         for use in (True, False):
-            curve = []
-            fit_texture(model, image, FitSettings(**{**cfg.__dict__, "prior": use}),
-                        on_eval=lambda *r: curve.append(r))
+            curve: list = []
+            fit_texture(model, image, replace(cfg, prior=use),
+                        on_eval=lambda *r, c=curve: c.append(r))
             starts[use] = curve[0][2]
     finally:
         model.fit_prior = None

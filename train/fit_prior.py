@@ -29,9 +29,9 @@ from pathlib import Path
 import torch
 
 from neuraltex.errors import InputError, one_line
+from neuraltex.fileio import atomic_path, load_weights_only
 from neuraltex.fit import FitSettings, choose_segments, first_offsets, tuning, tuning_step
 from neuraltex.fit_prior import prior_path, save_prior, start_generator
-from neuraltex.fileio import atomic_path, load_weights_only
 from neuraltex.model import DEFAULT_MODEL, load_model
 from neuraltex.tuned_decoder import ColourOffsetGenerator
 
