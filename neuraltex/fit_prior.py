@@ -121,8 +121,3 @@ def start_generator(model, use_prior: bool = True) -> nn.Module:
                 p.copy_(prior[0][name])
     return G
 
-
-def start_name(model, use_prior: bool = True) -> str:
-    """What :func:`start_generator` starts from, for headers and logs."""
-    prior = getattr(model, "fit_prior", None) if use_prior else None
-    return "base" if prior is None else "fit_prior"

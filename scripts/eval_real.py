@@ -278,7 +278,7 @@ def init_compare(images, settings: FitSettings, chain: int = 0, seeds: int = 1) 
         (a, ca), (g, cg) = _climb(pre, image, settings), _climb(pre, image, plain)
         rnd = [_climb(m, image, plain) for m in randoms]
         finals = [b.plain_psnr for b, _ in rnd]
-        level = sum(finals) / len(finals)
+        level, mean = sum(finals) / len(finals), _mean_climb([c for _, c in rnd])
         prior = "fit prior" if getattr(pre, "fit_prior", None) is not None else "no fit prior"
         out.append(f"init {name}: shipped ({prior}) {a.plain_psnr:.2f} dB, shipped G alone "
                    f"{g.plain_psnr:.2f} dB, random (seeds 0-{seeds - 1}) "
@@ -287,13 +287,13 @@ def init_compare(images, settings: FitSettings, chain: int = 0, seeds: int = 1) 
                    f"{rnd[0][1][-1][1]:.0f} s); margin over random's mean "
                    f"{a.plain_psnr - level:+.2f} dB, over its best "
                    f"{a.plain_psnr - max(finals):+.2f} dB; random's mean final level: shipped "
-                   f"{_sooner(ca, _mean_climb([c for _, c in rnd]), level)}; shipped G alone "
-                   f"{_sooner(cg, _mean_climb([c for _, c in rnd]), level)}")
+                   f"{_sooner(ca, mean, level)}; shipped G alone "
+                   f"{_sooner(cg, mean, level)}")
         if chained is not None:
             c, cc = _climb(chained, image, plain)
             out.append(f"init {name}: chained ({chain} procedural) {cc[0][2]:.2f} -> "
                        f"{c.plain_psnr:.2f} dB before sprites; random's mean final level: "
-                       f"chained {_sooner(cc, _mean_climb([c for _, c in rnd]), level)}")
+                       f"chained {_sooner(cc, mean, level)}")
     return out
 
 

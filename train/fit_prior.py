@@ -21,6 +21,7 @@ Examples:
 from __future__ import annotations
 
 import argparse
+import copy
 import os
 import sys
 import time
@@ -100,8 +101,7 @@ def reptile_iteration(model, phi: torch.nn.Module, task: tuple, cfg: FitSettings
     """One Reptile update of the start ``phi`` (G) in place; returns the tuning's first and
     last loss."""
     image, textons, offsets = task
-    G = ColourOffsetGenerator(start_generator(model, use_prior=False)).eval()
-    G.generator.load_state_dict(phi.state_dict())
+    G = ColourOffsetGenerator(copy.deepcopy(phi)).eval()  # eval: keep BN stats
     current, opt = tuning(G, textons, offsets, cfg)
     losses = [tuning_step(model, G, image, current(), opt, cfg, rng) for _ in range(steps)]
     with torch.no_grad():
