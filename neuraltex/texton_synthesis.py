@@ -358,11 +358,13 @@ def paste_arranged(textons: Textons, rows: Tensor, groups: list[list[int]],
 def synthesize_texture(decoder, textons: Textons, short: int, size: tuple[int, int],
                        settings: ArrangeSettings = ArrangeSettings(),
                        on_iteration: Callable | None = None,
-                       labels: np.ndarray | None = None) -> tuple[Tensor, Arrangement]:
+                       labels: np.ndarray | None = None,
+                       source: Tensor | None = None) -> tuple[Tensor, Arrangement]:
     """(picture (3, H, W), arrangement) of a texture grown to ``size`` = (H, W) at the
     input's pixel pitch (``short`` px per normalized unit): arrange, then decode; with the
     texture's ``labels`` (h, w; texton of each pixel, a texture file's segments) each placed
-    element then brings the reconstruction's pixels under its footprint
+    element then brings the pixels of ``source`` (3, h', w'), the picture the textons were
+    fitted to, under its footprint, or the reconstruction's when there is no source
     (:func:`paste_arranged`; the decode stays as the ground between them, and in
     ``arr.decoded``)."""
     plain = decoder.generator.feature_channels - 2
@@ -375,6 +377,19 @@ def synthesize_texture(decoder, textons: Textons, short: int, size: tuple[int, i
     image = decode_arranged(decoder, arr.textons, size, settings.tileable, len(arr.background))
     arr.decoded = image
     if labels is not None:
-        image = paste_arranged(textons, arr.rows, arr.groups, arr.placements, recon, labels,
+        pixels = recon if source is None else source_pixels(source, recon.shape[-2:])
+        image = paste_arranged(textons, arr.rows, arr.groups, arr.placements, pixels, labels,
                                short, image, settings.tileable)
     return image, arr
+
+
+def source_pixels(source: Tensor, size: tuple[int, int]) -> Tensor:
+    """The source picture (3, h, w) at the reconstruction's ``size`` = (H, W) (area-averaged
+    when it is larger, bilinear when smaller), in [0, 1]. -> (3, H, W)."""
+    if tuple(source.shape[-2:]) == tuple(size):
+        return source.float().clamp(0, 1)
+    small = source.shape[-2] * source.shape[-1] > size[0] * size[1]
+    out = torch.nn.functional.interpolate(source[None].float(), size=tuple(size),
+                                          mode="area" if small else "bilinear",
+                                          align_corners=None if small else False)
+    return out[0].clamp(0, 1)

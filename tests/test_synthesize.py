@@ -223,3 +223,40 @@ def test_placed_elements_bring_the_reconstructions_pixels(files, tmp_path):
     a = np.asarray(Image.open(pasted), np.float64)
     b = np.asarray(Image.open(decoded), np.float64)
     assert a.shape == b.shape and np.abs(a - b).mean() > 1.0
+
+
+def _share_of_input_colours(out, source) -> float:
+    """Share of the output's pixels whose exact RGB occurs in ``source``."""
+    colours = {tuple(c) for c in np.asarray(Image.open(source))[..., :3].reshape(-1, 3)}
+    pixels = np.asarray(Image.open(out))[..., :3].reshape(-1, 3)
+    return float(np.mean([tuple(c) in colours for c in pixels]))
+
+
+def test_an_image_input_pastes_its_own_pixels(files, tmp_path):
+    """Given a picture, the placed elements copy its pixels (exact RGB values of the input);
+    --decode-only paints everything with the decoder."""
+    out, dec = tmp_path / "b.png", tmp_path / "bd.png"
+    for path, extra in ((out, []), (dec, ["--decode-only"])):
+        assert main(["synthesize", str(files / "b.png"), "-o", str(path), "--quiet",
+                     "--iterations", "1", "--scale", "2", *extra]) == 0
+    assert _share_of_input_colours(out, files / "b.png") > 0.3  # 40 % at 32 x 40: soft edges
+    assert _share_of_input_colours(dec, files / "b.png") < 0.05
+
+
+def test_source_of_a_texture_file_brings_its_pixels_and_is_checked(files, tmp_path, capsys):
+    own, recon = tmp_path / "own.png", tmp_path / "recon.png"
+    assert _synth(files, own, "--scale", "2", "--source", str(files / "a.png")) == 0
+    assert _synth(files, recon, "--scale", "2") == 0
+    assert _share_of_input_colours(own, files / "a.png") > \
+        _share_of_input_colours(recon, files / "a.png") + 0.25
+    bad = tmp_path / "bad.png"
+    for extra in (["--source", str(files / "b.png")],  # another picture: its sha256 differs
+                  ["--source", str(tmp_path / "missing.png")],
+                  ["--source", str(files / "a.png"), "--decode-only"]):
+        assert _synth(files, bad, "--scale", "2", *extra) == 2
+        assert not bad.exists()
+    err = capsys.readouterr().err
+    assert "not the picture a.ntex was fitted to (a.png" in err and "Traceback" not in err
+    assert main(["synthesize", str(files / "b.png"), "-o", str(bad), "--quiet", "--scale", "2",
+                 "--source", str(files / "b.png")]) == 2
+    assert "goes with a texture file" in capsys.readouterr().err

@@ -78,6 +78,7 @@ class Texture:
     decoder: TextonAutoencoder | None = None  # the tuned model of a texture file
     labels: object = None  # (H, W) int64 segments of a texture file (numpy)
     elements: object = None  # (K,) int64 element of each texton of a texture file (numpy)
+    header: dict | None = None  # a texture file's header (source, size, fit ...)
 
 
 def textons_of(model: TextonAutoencoder, path: Path, lim: Limits,
@@ -94,7 +95,7 @@ def textons_of(model: TextonAutoencoder, path: Path, lim: Limits,
         tex = load_texture(path, model)
         return Texture(tex.textons.to(device=device), min(tex.header["size"]),
                        decoder=tuned_model(model, tex.generator).to(device), labels=tex.labels,
-                       elements=tex.elements)
+                       elements=tex.elements, header=tex.header)
     if path.suffix.lower() in TEXTON_FILES:
         from neuraltex.textons_file import load_textons
 

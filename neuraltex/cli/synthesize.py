@@ -21,9 +21,10 @@ def cmd_synthesize(args: argparse.Namespace) -> int:
     Gaussian elements (the textons of one object together, or one by one: whichever covers
     the canvas like the input) with their size and colour, and decoded at the output size;
     then each placed element brings the pixels of the texture's reconstruction under its
-    footprint (its segments and a margin of ground), so it arrives as sharp as the
-    reconstruction draws it. With --tileable the arrangement wraps around, and so do the
-    decode and the pasted pixels."""
+    footprint (its segments and a margin of ground): the pixels of the picture itself when
+    it is at hand (an image, or a texture file's --source), else those of the texture's
+    reconstruction. With --tileable the arrangement wraps around, and so do the decode and
+    the pasted pixels."""
     from neuraltex.imageio import check_output_path
 
     check_output_path(args.output)
@@ -33,7 +34,9 @@ def cmd_synthesize(args: argparse.Namespace) -> int:
     tex = common.textons_of(model, args.texture, common.limits(args), args.device)
     decoder, (textons,) = common.decoder_for(model, tex)
     size = _size(args, textons.canvas, tex.short)
-    image, arr = _synthesize(args, decoder, textons, size, tex.short, _labels(tex, args))
+    source = _source(args, tex)
+    image, arr = _synthesize(args, decoder, textons, size, tex.short, _labels(tex, args),
+                             source)
     common.save(image, args.output)
     if args.preview_textons is not None:
         _write_svg(arr, args.preview_textons, size, tex.short)
@@ -67,7 +70,38 @@ def _labels(tex: common.Texture, args: argparse.Namespace):
     return None if tex.masks is None else tex.masks.argmax(0).cpu().numpy()
 
 
-def _synthesize(args, decoder, textons, size: tuple[int, int], short: int, labels=None):
+def _source(args: argparse.Namespace, tex: common.Texture):
+    """(3, h, w) the picture whose pixels the placed elements bring: an image input itself,
+    or a texture file's --source, checked against the sha256 its header records; None (the
+    reconstruction's pixels) for a texture file without --source, or with --decode-only."""
+    if args.source is None:
+        return None if args.decode_only else tex.image
+    if tex.header is None:
+        raise InputError(f"--source goes with a texture file (.ntex); {args.texture} is its "
+                         "own source")
+    if args.decode_only:
+        raise InputError("--source and --decode-only exclude each other (--decode-only "
+                         "pastes no pixels)")
+    import hashlib
+
+    from neuraltex.imageio import load_image
+
+    if not args.source.is_file():
+        raise InputError(f"{args.source}: no such image file")
+    digest = hashlib.sha256()
+    with open(args.source, "rb") as f:
+        for chunk in iter(lambda: f.read(1 << 20), b""):
+            digest.update(chunk)
+    want = tex.header.get("source")
+    want = want if isinstance(want, dict) else {}
+    if digest.hexdigest() != want.get("sha256"):
+        raise InputError(f"{args.source}: not the picture {args.texture.name} was fitted to "
+                         f"({want.get('file', 'unknown')}; its sha256 differs)")
+    return load_image(args.source, limits=common.limits(args))
+
+
+def _synthesize(args, decoder, textons, size: tuple[int, int], short: int, labels=None,
+                source=None):
     """(image (3, H, W), Arrangement) with a progress bar over the synthesis iterations."""
     from tqdm import tqdm
 
@@ -86,7 +120,8 @@ def _synthesize(args, decoder, textons, size: tuple[int, int], short: int, label
             bar.set_description("decoding")
 
     try:
-        image, arr = synthesize_texture(decoder, textons, short, size, settings, tick, labels)
+        image, arr = synthesize_texture(decoder, textons, short, size, settings, tick, labels,
+                                        source)
     finally:
         bar.close()
     return image, arr
@@ -132,7 +167,11 @@ def add_commands(sub) -> None:
                    help="also write the arranged textons as SVG ellipses")
     p.add_argument("--iterations", type=types.integer(1, 50), default=3,
                    help="synthesis iterations (search + assignment) per level (default 3)")
+    p.add_argument("--source", type=Path, metavar="IMAGE",
+                   help="with a texture file: the picture it was fitted to (checked by its "
+                   "sha256); the placed elements bring its pixels instead of the "
+                   "reconstruction's (an image input is always its own source)")
     p.add_argument("--decode-only", action="store_true",
-                   help="paint the arranged textons with the decoder only (no pixels of the "
-                   "reconstruction pasted under the placed elements)")
+                   help="paint the arranged textons with the decoder only (no pixels "
+                   "pasted under the placed elements)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
