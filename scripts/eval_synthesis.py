@@ -122,7 +122,7 @@ def tileable_seam(tex, image: np.ndarray, size, seed: int) -> dict:
 
 
 def row_text(name: str, size, sc: dict, seconds: float, rep_in: float, kept: str) -> str:
-    cells = " ".join(f"{sc[m]['swd']:7.2f} {sc[m]['gram']:5.3f}" for m in METHODS)
+    cells = " ".join(f"{sc[m]['swd']:7.3f} {sc[m]['gram']:6.4f}" for m in METHODS)
     return (f"{name:12s} {size[0]}x{size[1]:<4d} {cells}   rep in/tile/ours/quilt {rep_in:.2f}/"
             f"{sc['tiling']['rep']:.2f}/{sc['ours']['rep']:.2f}/{sc['quilting']['rep']:.2f}"
             f"  {seconds:5.1f} s  {kept:6s}")
