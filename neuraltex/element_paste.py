@@ -14,8 +14,10 @@ pixels of its textons, and the ground within ``margin`` px of them:
     out <- alpha_e(x - d_e) R(x - d_e) + (1 - alpha_e(x - d_e)) out(x),  out = B at first
 
 (d_e rounded to whole pixels: no resampling blurs what is copied). Tileable: x - d_e is
-taken modulo the output, so the paste wraps around like the arrangement. What is copied is
-R, the texture file's own reconstruction at its own size, never the input picture.
+taken modulo the output, so the paste wraps around like the arrangement. What is copied
+("R" above and below) is the source picture at the texture's own size when the caller has it
+(an image input, or ``neuraltex synthesize --source``), else the texture file's own
+reconstruction: :func:`neuraltex.texton_synthesis.synthesize_texture` decides.
 """
 
 from __future__ import annotations

@@ -20,11 +20,10 @@ def cmd_synthesize(args: argparse.Namespace) -> int:
     decoded with its tuned decoder) are arranged on a larger canvas by cvt's synthesis, as
     Gaussian elements (the textons of one object together, or one by one: whichever covers
     the canvas like the input) with their size and colour, and decoded at the output size;
-    then each placed element brings the pixels of the texture's reconstruction under its
-    footprint (its segments and a margin of ground): the pixels of the picture itself when
-    it is at hand (an image, or a texture file's --source), else those of the texture's
-    reconstruction. With --tileable the arrangement wraps around, and so do the decode and
-    the pasted pixels."""
+    then each placed element brings pixels under its footprint (its segments and a margin
+    of ground): those of the picture itself when it is at hand (an image, or a texture
+    file's --source), else those of the texture's reconstruction. With --tileable the
+    arrangement wraps around, and so do the decode and the pasted pixels."""
     from neuraltex.imageio import check_output_path
 
     check_output_path(args.output)
