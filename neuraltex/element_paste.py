@@ -165,7 +165,7 @@ def fill_gaps(pasted: Pasted, recon: Tensor, ground: Tensor, tileable: bool = Fa
                 step[:, -1] = False
         seam |= step | np.roll(step, 1, axis)
     seam = torch.from_numpy(binary_dilation(seam) if not tileable else _dilate_wrap(seam))
-    soft = _blur_rgb(fill, feather * 2, tileable)
+    soft = blur(fill, feather * 2, "circular" if tileable else "replicate")
     fill = torch.where(seam, soft, fill)
     return pasted.image + (1 - pasted.cover) * (fill - ground)
 
@@ -182,15 +182,6 @@ def _dilate_wrap(mask: np.ndarray) -> np.ndarray:
     for axis in (0, 1):
         out |= np.roll(mask, 1, axis) | np.roll(mask, -1, axis)
     return out
-
-
-def _blur_rgb(image: Tensor, sigma: float, tileable: bool) -> Tensor:
-    """(3, H, W) Gaussian blur per channel; ``tileable``: around the wrap."""
-    if not tileable:
-        return torch.stack([blur(ch, sigma) for ch in image])
-    r = math.ceil(2 * sigma)
-    wrapped = torch.nn.functional.pad(image[None], (r, r, r, r), mode="circular")[0]
-    return torch.stack([blur(ch, sigma) for ch in wrapped])[:, r:-r, r:-r]
 
 
 def pixel_placements(placements: list[tuple[int, float, float]], rank: np.ndarray,

@@ -83,13 +83,15 @@ def labels_at(labels: np.ndarray, size: tuple[int, int]) -> np.ndarray:
     return F.interpolate(lab, size=tuple(size), mode="nearest")[0, 0].long().numpy()
 
 
-def blur(mask: torch.Tensor, sigma: float) -> torch.Tensor:
-    """(H, W) -> (H, W): a separable Gaussian blur (replicated edges); sigma 0: unchanged."""
+def blur(x: torch.Tensor, sigma: float, mode: str = "replicate") -> torch.Tensor:
+    """(..., H, W) -> (..., H, W): a separable Gaussian blur of each (H, W) plane; edges
+    ``mode`` "replicate", or "circular" (around the torus); sigma 0: unchanged."""
     if sigma <= 0:
-        return mask
+        return x
     r = math.ceil(2 * sigma)
-    x = torch.arange(-r, r + 1, dtype=mask.dtype)
-    g = torch.exp(-x ** 2 / (2 * sigma ** 2))
+    t = torch.arange(-r, r + 1, dtype=x.dtype)
+    g = torch.exp(-t ** 2 / (2 * sigma ** 2))
     g = g / g.sum()
-    a = F.conv2d(F.pad(mask[None, None], (r, r, 0, 0), mode="replicate"), g.view(1, 1, 1, -1))
-    return F.conv2d(F.pad(a, (0, 0, r, r), mode="replicate"), g.view(1, 1, -1, 1))[0, 0]
+    planes = x.reshape(-1, 1, *x.shape[-2:])
+    a = F.conv2d(F.pad(planes, (r, r, 0, 0), mode=mode), g.view(1, 1, 1, -1))
+    return F.conv2d(F.pad(a, (0, 0, r, r), mode=mode), g.view(1, 1, -1, 1)).reshape(x.shape)

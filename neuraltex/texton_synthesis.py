@@ -19,9 +19,10 @@
    tileable texture is decoded on a canvas padded with the toroidally repeated textons and
    cropped, so the picture wraps around without a seam (G is convolutional and local).
 5. With the texture's segment labels, :func:`paste_arranged` then draws each placed element
-   from the reconstruction R under its footprint, and fills what the pastes leave uncovered
-   from around the nearest paste (:mod:`neuraltex.element_paste`): G's decode stays only as
-   the ground beneath, so what arrives is as sharp as R draws it.
+   from a picture P under its footprint, and fills what the pastes leave uncovered from
+   around the nearest paste (:mod:`neuraltex.element_paste`): P is the source picture when
+   the caller has it, else the reconstruction R. G's decode stays only as the ground
+   beneath, so what arrives is as sharp as P.
 """
 
 from __future__ import annotations
@@ -331,14 +332,14 @@ def steady_background(textons: Textons, background: Tensor, plain: int, short: i
 
 
 def paste_arranged(textons: Textons, rows: Tensor, groups: list[list[int]],
-                   placements: list[tuple[int, float, float]], recon: Tensor,
+                   placements: list[tuple[int, float, float]], pixels: Tensor,
                    labels: np.ndarray, short: int, ground: Tensor,
                    tileable: bool = False) -> Tensor:
     """``ground`` (3, H, W) with every placement (element, dx, dy) of the elements ``groups``
-    (positions into ``rows`` (E,), texton indices of the input ``textons``) drawn from the
-    reconstruction ``recon`` (3, h, w) under its footprint in ``labels`` (h, w: texton of
-    each pixel) (:mod:`neuraltex.element_paste`), bottom to top in the input's draw order.
-    -> (3, H, W) in [0, 1]."""
+    (positions into ``rows`` (E,), texton indices of the input ``textons``) drawn from
+    ``pixels`` (3, h, w: the reconstruction, or the source picture at its size) under its
+    footprint in ``labels`` (h, w: texton of each pixel) (:mod:`neuraltex.element_paste`),
+    bottom to top in the input's draw order. -> (3, H, W) in [0, 1]."""
     from neuraltex.element_paste import (
         cutouts,
         element_rank,
@@ -347,12 +348,12 @@ def paste_arranged(textons: Textons, rows: Tensor, groups: list[list[int]],
         pixel_placements,
     )
 
-    rows, recon = rows.cpu().numpy(), recon.clamp(0, 1).cpu()
-    pieces = cutouts(recon, labels, rows, groups, textons.num_textons)
+    rows, pixels = rows.cpu().numpy(), pixels.clamp(0, 1).cpu()
+    pieces = cutouts(pixels, labels, rows, groups, textons.num_textons)
     rank = element_rank(textons.order[0].cpu().numpy(), rows, groups)
     placed = pixel_placements(placements, rank, short)
     pasted = paste(ground.cpu(), pieces, placed, tileable)
-    return fill_gaps(pasted, recon, ground.cpu(), tileable).clamp(0, 1).to(ground)
+    return fill_gaps(pasted, pixels, ground.cpu(), tileable).clamp(0, 1).to(ground)
 
 
 def synthesize_texture(decoder, textons: Textons, short: int, size: tuple[int, int],
@@ -384,12 +385,9 @@ def synthesize_texture(decoder, textons: Textons, short: int, size: tuple[int, i
 
 
 def source_pixels(source: Tensor, size: tuple[int, int]) -> Tensor:
-    """The source picture (3, h, w) at the reconstruction's ``size`` = (H, W) (area-averaged
-    when it is larger, bilinear when smaller), in [0, 1]. -> (3, H, W)."""
-    if tuple(source.shape[-2:]) == tuple(size):
-        return source.float().clamp(0, 1)
-    small = source.shape[-2] * source.shape[-1] > size[0] * size[1]
-    out = torch.nn.functional.interpolate(source[None].float(), size=tuple(size),
-                                          mode="area" if small else "bilinear",
-                                          align_corners=None if small else False)
-    return out[0].clamp(0, 1)
+    """The source picture (3, h, w) at the reconstruction's ``size`` = (H, W), resampled as
+    ``neuraltex fit`` resampled it (:func:`neuraltex.nn_utils.resize`), in [0, 1].
+    -> (3, H, W)."""
+    from neuraltex.nn_utils import resize
+
+    return resize(source[None].float(), tuple(size))[0].clamp(0, 1)

@@ -4,7 +4,6 @@ every editing command reads in place of the image."""
 from __future__ import annotations
 
 import argparse
-import hashlib
 import time
 from pathlib import Path
 
@@ -23,6 +22,7 @@ def cmd_fit(args: argparse.Namespace) -> int:
     reconstructions and edits of that texture with every other command."""
     import torch
 
+    from neuraltex.fileio import file_sha256
     from neuraltex.fit import SEGMENTERS, FitSettings, fit_texture
     from neuraltex.imageio import check_output_path, load_image
     from neuraltex.nn_utils import shrink_short_side
@@ -47,7 +47,7 @@ def cmd_fit(args: argparse.Namespace) -> int:
     fit = fit_texture(model, image, settings)
     total = time.perf_counter() - begin
     source = {"file": args.image.name, "width": w, "height": h,
-              "sha256": hashlib.sha256(args.image.read_bytes()).hexdigest()}
+              "sha256": file_sha256(args.image)}
     header = {"source": source, "size": list(image.shape[-2:]), "segmenter": fit.segmenter,
               "fit": {"steps": fit.steps, "seconds": round(fit.seconds, 2),
                       "psnr": round(fit.psnr, 3), "base_psnr": round(fit.base_psnr, 3),

@@ -81,19 +81,14 @@ def _source(args: argparse.Namespace, tex: common.Texture):
     if args.decode_only:
         raise InputError("--source and --decode-only exclude each other (--decode-only "
                          "pastes no pixels)")
-    import hashlib
-
+    from neuraltex.fileio import file_sha256
     from neuraltex.imageio import load_image
 
     if not args.source.is_file():
         raise InputError(f"{args.source}: no such image file")
-    digest = hashlib.sha256()
-    with open(args.source, "rb") as f:
-        for chunk in iter(lambda: f.read(1 << 20), b""):
-            digest.update(chunk)
     want = tex.header.get("source")
     want = want if isinstance(want, dict) else {}
-    if digest.hexdigest() != want.get("sha256"):
+    if file_sha256(args.source) != want.get("sha256"):
         raise InputError(f"{args.source}: not the picture {args.texture.name} was fitted to "
                          f"({want.get('file', 'unknown')}; its sha256 differs)")
     return load_image(args.source, limits=common.limits(args))

@@ -71,7 +71,7 @@ def recolour(picture: Tensor, labels: np.ndarray, colours: np.ndarray, target: n
     segment (its shading, edges, the sprites) stays."""
     lab = torch.from_numpy(labels_at(labels, tuple(picture.shape[-2:])))
     shift = torch.from_numpy(target - colours).to(picture)[lab].permute(2, 0, 1)  # (3, H, W)
-    shift = torch.stack([blur(c, feather) for c in shift])
+    shift = blur(shift, feather)
     return (picture + shift).clamp(0, 1)
 
 
