@@ -67,7 +67,7 @@ def merge_duplicates(placements: list[Placement], boxes: np.ndarray,
     element, stacking near-copies; the clustering step fixes the cause. ``boxes`` (E, 4) are
     the input elements' bounding boxes.
     """
-    from cvt.reconstruction import box_iou
+    from cvt.boxes import box_iou
 
     if len(placements) < 2:
         return placements

@@ -16,6 +16,7 @@ from collections.abc import Callable
 
 import numpy as np
 
+from cvt.boxes import box_intersection
 from cvt.free_spot import emptiest_spot
 from cvt.torus import images, periodic_max
 
@@ -80,7 +81,7 @@ def composites(boxes: np.ndarray, cut: np.ndarray, share: float = 0.1) -> list[l
     """Whole elements that sit on or overlap each other (box intersection >= ``share`` of the
     smaller box), as groups in z order: a butterfly with its heart. Shape: boxes (E, 4)."""
     area = np.prod(boxes[:, 2:] - boxes[:, :2], axis=1)
-    inter = _intersection(boxes, boxes)
+    inter = box_intersection(boxes, boxes)
     near = inter >= share * np.minimum(area[:, None], area[None, :])  # (E, E)
     near &= ~cut[:, None] & ~cut[None, :]
     label = np.arange(len(boxes))
@@ -161,7 +162,7 @@ def overlap_limits(boxes: np.ndarray, kinds: np.ndarray, cut: np.ndarray,
                    margin: float = 0.05) -> np.ndarray:
     """Largest box IoU of two whole exemplar elements, per kind pair, plus ``margin``.
     Shape: -> (K, K)."""
-    from cvt.reconstruction import box_iou
+    from cvt.boxes import box_iou
 
     n = int(kinds.max()) + 1
     iou = box_iou(boxes, boxes)
@@ -177,7 +178,7 @@ def drop_overlaps(placed: list[Placed], boxes: np.ndarray, kinds: np.ndarray,
                   limits: np.ndarray, torus=None) -> list[Placed]:
     """Drop copies overlapping an earlier kept copy more than any two exemplar elements of
     those kinds overlap (stacked duplicates, clashes the exemplar never shows)."""
-    from cvt.reconstruction import box_iou
+    from cvt.boxes import box_iou
 
     if len(placed) < 2:
         return placed
@@ -226,12 +227,6 @@ def _emptiest(placed, boxes, box, out_box, rng, inside, torus=None
     return float(d[0]), float(d[1])
 
 
-def _intersection(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Intersection areas of boxes. Shape: (A, 4), (B, 4) -> (A, B)."""
-    return np.clip(np.minimum(a[:, None, 2:], b[None, :, 2:])
-                   - np.maximum(a[:, None, :2], b[None, :, :2]), 0, None).prod(-1)
-
-
 def _insert(placed: list[Placed], p: Placed, kinds: np.ndarray) -> None:
     last = max((i for i, q in enumerate(placed) if kinds[q[0]] == kinds[p[0]]), default=None)
     if last is None:  # above the copies of lower elements (input z order)
@@ -249,7 +244,7 @@ def _thin(placed, boxes, kinds, k, gap, want, out_box, inside, torus=None,
 
     on = np.nonzero(_centred(placed, boxes, kinds, k, out_box, inside))[0]
     mb = moved_boxes([placed[i] for i in on], boxes)
-    inter = periodic_max(_intersection, mb, mb, torus)
+    inter = periodic_max(box_intersection, mb, mb, torus)
     np.fill_diagonal(inter, 0)
     all_mb = moved_boxes(placed, boxes)
     kk = kinds[[p[0] for p in placed]]

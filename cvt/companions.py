@@ -21,20 +21,13 @@ def touches(b: np.ndarray, share: float = 0.1, torus=None,
     """Boxes i and j share >= ``share`` of the smaller one (i != j; on a ``torus``, cvt.torus,
     across the seam too); with ``cols``, only the columns j in ``cols``.
     Shape: (N, 4) -> (N, N), or (N, C) for cols (C,)."""
+    from cvt.boxes import box_touch
     from cvt.torus import periodic_max
 
     cols = np.arange(len(b)) if cols is None else np.asarray(cols)
-    out = periodic_max(lambda p, q: _touch(p, q, share), b, b[cols], torus)
+    out = periodic_max(lambda p, q: box_touch(p, q, share), b, b[cols], torus)
     out[cols, np.arange(len(cols))] = False
     return out
-
-
-def _touch(a: np.ndarray, b: np.ndarray, share: float) -> np.ndarray:
-    """Shape: (A, 4), (B, 4) -> (A, B) bool."""
-    area_a, area_b = np.prod(a[:, 2:] - a[:, :2], axis=1), np.prod(b[:, 2:] - b[:, :2], axis=1)
-    inter = np.clip(np.minimum(a[:, None, 2:], b[None, :, 2:])
-                    - np.maximum(a[:, None, :2], b[None, :, :2]), 0, None).prod(-1)
-    return inter >= share * np.minimum(area_a[:, None], area_b[None, :])
 
 
 def companion_kinds(boxes: np.ndarray, kinds: np.ndarray,

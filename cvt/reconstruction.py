@@ -56,16 +56,6 @@ def filter_placements(placements: list[Placement]) -> list[Placement]:
     return [p for p in placements if p.energy <= p.size]
 
 
-def box_iou(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Pairwise IoU of boxes (x0, y0, x1, y1). Shape: (P, 4), (Q, 4) -> (P, Q)."""
-    lo = np.maximum(a[:, None, :2], b[None, :, :2])
-    hi = np.minimum(a[:, None, 2:], b[None, :, 2:])
-    inter = np.clip(hi - lo, 0, None).prod(-1)
-    area_a = (a[:, 2:] - a[:, :2]).prod(-1)
-    area_b = (b[:, 2:] - b[:, :2]).prod(-1)
-    return inter / np.maximum(area_a[:, None] + area_b[None, :] - inter, 1e-12)
-
-
 def upsample(placements: list[Placement], inp: Samples) -> Samples:
     """Next-level output: the finer input samples of each placed element, translated.
 

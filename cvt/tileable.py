@@ -11,8 +11,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from cvt.boxes import box_iou
 from cvt.canvas import Placed, moved_boxes
-from cvt.reconstruction import box_iou
 from cvt.torus import Torus
 
 

@@ -27,8 +27,12 @@
 
 from __future__ import annotations
 
+import os
+import threading
 from collections.abc import Callable
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, replace
+from functools import partial
 
 import numpy as np
 import torch
@@ -66,6 +70,10 @@ class ArrangeSettings:
     # borders, and the pieces, rebuilt as whole groups, crowd the output: coins, patch-SWD 19
     # against 16 one by one and 15.5 with this)
     group_init: str = "gaussian"
+    # The two arrangements (groups, alone) run at once in two threads of one torch thread
+    # each when the machine has two cores: the same result (each has its own generator), in
+    # about the time of the slower one
+    parallel: bool = True
 
     @property
     def steps(self) -> int:  # arranged twice with groups: in groups and one by one
@@ -181,10 +189,14 @@ def arrange(textons: Textons, canvas: tuple[float, float], colours: tuple[Tensor
     if len(elems) < 2:
         raise InputError(f"the texture has {len(elems)} element texton(s) besides its "
                          "background: nothing to arrange")
+    if on_iteration is not None:  # the arrangements may report from two threads
+        on_iteration = _serialized(on_iteration)
     alone = replace(settings, group_extent=0.0)
     grouped = replace(settings, init=settings.group_init)
-    tries = [_arrange(textons, elems, back, canvas, colours, s, on_iteration)
-             for s in ((grouped, alone) if settings.group_extent > 0 else (alone,))]
+    tries = side_by_side(
+        [partial(_arrange, textons, elems, back, canvas, colours, s, on_iteration)
+         for s in ((grouped, alone) if settings.group_extent > 0 else (alone,))],
+        settings.parallel)
     if len(tries) == 1:
         return tries[0]
     target = coverage(textons.index(torch.cat([back, elems])), len(back))
@@ -193,6 +205,41 @@ def arrange(textons: Textons, canvas: tuple[float, float], colours: tuple[Tensor
     tries[best].notes.append(f"coverage: input {target:.3f}, groups {share[0]:.3f}, textons "
                              f"alone {share[1]:.3f}: {('groups', 'textons alone')[best]} kept")
     return tries[best]
+
+
+def _serialized(fn: Callable) -> Callable:
+    """``fn`` behind a lock: one call at a time, from any thread."""
+    lock = threading.Lock()
+
+    def call(*args, **kwargs):
+        with lock:
+            return fn(*args, **kwargs)
+
+    return call
+
+
+def side_by_side(jobs: list[Callable], parallel: bool = True) -> list:
+    """The results of ``jobs`` (calls without arguments), in order: with ``parallel`` and two
+    or more usable cores, each in a thread of its own with one torch thread (torch releases
+    the GIL in its kernels; the thread count is process-wide, so it is set once around all of
+    them, and results equal the sequential ones); the caller's grad mode (thread-local)
+    carries over."""
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+    if not parallel or len(jobs) < 2 or (cores or 1) < 2:
+        return [job() for job in jobs]
+    grad, threads = torch.is_grad_enabled(), torch.get_num_threads()
+
+    def run(job: Callable):
+        with torch.set_grad_enabled(grad):
+            return job()
+
+    torch.set_num_threads(1)
+    try:
+        with ThreadPoolExecutor(len(jobs)) as pool:
+            futures = [pool.submit(run, job) for job in jobs]
+            return [f.result() for f in futures]
+    finally:
+        torch.set_num_threads(threads)
 
 
 def _arrange(textons: Textons, elems: Tensor, back: Tensor, canvas: tuple[float, float],

@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from cvt.reconstruction import box_iou
+from cvt.boxes import box_iou
 from cvt.svg import SVG_NS, load_svg
 from cvt.synthesis import SynthesisConfig, depth_order, result_svg, synthesize
 

@@ -7,9 +7,9 @@ import numpy as np
 import torch
 
 from cvt.assignment import assign_positions
+from cvt.boxes import box_iou
 from cvt.neighborhood import DistanceParams, neighborhoods, pair_space
 from cvt.pattern import PatternOptions, synthesize_pattern
-from cvt.reconstruction import box_iou
 from cvt.seam import seam_step
 from cvt.search import Matches
 from cvt.svg import load_svg

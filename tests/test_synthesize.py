@@ -2,6 +2,7 @@
 cvt.gaussians): tiny texture files fitted with the shipped model, in-process CLI calls."""
 
 import hashlib
+import os
 from dataclasses import replace
 
 import numpy as np
@@ -19,6 +20,7 @@ from neuraltex.texton_synthesis import (
     decode_arranged,
     periodic,
     place,
+    side_by_side,
     steady_background,
 )
 from tests.conftest import make_textons
@@ -146,6 +148,34 @@ def test_groups_or_textons_alone_whichever_covers_like_the_input():
     target = coverage(t, 1)
     kept = abs(coverage(arr.textons, 1) - target)
     assert kept <= abs(coverage(alone.textons, 1) - target) + 1e-9
+
+
+def test_arrangements_in_two_threads_equal_the_sequential_ones():
+    """The groups and alone arrangements run side by side (one torch thread each); the
+    result, and which one is kept, are those of running them one after the other."""
+    t = _tiny_texture()
+    ticks = []
+    par = arrange(t, (2.0, 2.0), _colours(t), ArrangeSettings(iterations=2), ticks.append)
+    seq = arrange(t, (2.0, 2.0), _colours(t), ArrangeSettings(iterations=2, parallel=False))
+    assert par.placements == seq.placements and par.notes == seq.notes
+    assert torch.equal(par.textons.mu, seq.textons.mu)
+    assert len(ticks) == ArrangeSettings(iterations=2).steps  # both report, one at a time
+
+
+def test_side_by_side_keeps_order_grad_mode_and_thread_count():
+    threads = torch.get_num_threads()
+    with torch.no_grad():
+        got = side_by_side([lambda: (1, torch.is_grad_enabled(), torch.get_num_threads()),
+                            lambda: (2, torch.is_grad_enabled(), torch.get_num_threads())])
+    assert [g[0] for g in got] == [1, 2]
+    assert not any(g[1] for g in got)  # no_grad carried into the worker threads
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+    if cores >= 2:
+        assert all(g[2] == 1 for g in got)  # one torch thread each while side by side
+    assert torch.get_num_threads() == threads  # and the caller's count restored
+    with pytest.raises(ValueError):
+        side_by_side([lambda: 1, lambda: int("x")])  # a worker's error reaches the caller
+    assert torch.get_num_threads() == threads
 
 
 def test_background_sprite_is_made_constant_at_its_mean():
