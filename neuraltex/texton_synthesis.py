@@ -27,7 +27,6 @@
 
 from __future__ import annotations
 
-import os
 import threading
 from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
@@ -224,8 +223,9 @@ def side_by_side(jobs: list[Callable], parallel: bool = True) -> list:
     the GIL in its kernels; the thread count is process-wide, so it is set once around all of
     them, and results equal the sequential ones); the caller's grad mode (thread-local)
     carries over."""
-    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
-    if not parallel or len(jobs) < 2 or (cores or 1) < 2:
+    from neuraltex.cores import usable_cores
+
+    if not parallel or len(jobs) < 2 or usable_cores() < 2:
         return [job() for job in jobs]
     grad, threads = torch.is_grad_enabled(), torch.get_num_threads()
 

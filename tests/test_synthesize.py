@@ -2,7 +2,6 @@
 cvt.gaussians): tiny texture files fitted with the shipped model, in-process CLI calls."""
 
 import hashlib
-import os
 from dataclasses import replace
 
 import numpy as np
@@ -12,6 +11,7 @@ from PIL import Image
 
 from cvt.gaussians import LEVEL, ellipse_ring, gaussian_exemplar
 from neuraltex.cli import main
+from neuraltex.cores import usable_cores
 from neuraltex.data.generator import generate
 from neuraltex.texton_synthesis import (
     ArrangeSettings,
@@ -69,6 +69,10 @@ def test_deterministic_per_seed(files, tmp_path):
         runs[name] = _digest(tmp_path / f"{name}.png")
     assert runs["a"] == runs["b"]
     assert runs["a"] != runs["c"]
+    threads = torch.get_num_threads()
+    assert _synth(files, tmp_path / "d.png", "--scale", "2", "--seed", "1", "--threads", "1") == 0
+    assert _digest(tmp_path / "d.png") == runs["a"]  # one core: the same picture
+    assert torch.get_num_threads() == threads  # --threads held for the command only
 
 
 def test_plain_images_synthesize_too(files, tmp_path):
@@ -169,8 +173,7 @@ def test_side_by_side_keeps_order_grad_mode_and_thread_count():
                             lambda: (2, torch.is_grad_enabled(), torch.get_num_threads())])
     assert [g[0] for g in got] == [1, 2]
     assert not any(g[1] for g in got)  # no_grad carried into the worker threads
-    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
-    if cores >= 2:
+    if usable_cores() >= 2:
         assert all(g[2] == 1 for g in got)  # one torch thread each while side by side
     assert torch.get_num_threads() == threads  # and the caller's count restored
     with pytest.raises(ValueError):

@@ -9,6 +9,7 @@ from pathlib import Path
 
 from neuraltex.cli import args as types
 from neuraltex.cli import common
+from neuraltex.cores import usable_cores
 from neuraltex.errors import InputError
 
 MAX_SCALE = 8.0  # output side / input side
@@ -24,6 +25,17 @@ def cmd_synthesize(args: argparse.Namespace) -> int:
     of ground): those of the picture itself when it is at hand (an image, or a texture
     file's --source), else those of the texture's reconstruction. With --tileable the
     arrangement wraps around, and so do the decode and the pasted pixels."""
+    import torch
+
+    before = torch.get_num_threads()  # --threads for this command only (in-process callers)
+    torch.set_num_threads(args.threads)
+    try:
+        return _run(args)
+    finally:
+        torch.set_num_threads(before)
+
+
+def _run(args: argparse.Namespace) -> int:
     from neuraltex.imageio import check_output_path
 
     check_output_path(args.output)
@@ -102,7 +114,7 @@ def _synthesize(args, decoder, textons, size: tuple[int, int], short: int, label
     from neuraltex.texton_synthesis import ArrangeSettings, synthesize_texture
 
     settings = ArrangeSettings(tileable=args.tileable, seed=args.seed or 0,
-                               iterations=args.iterations)
+                               iterations=args.iterations, parallel=args.threads >= 2)
     bar = tqdm(total=settings.steps, disable=args.quiet, file=sys.stderr, unit="step",
                desc="arranging", dynamic_ncols=True)
 
@@ -168,4 +180,8 @@ def add_commands(sub) -> None:
     p.add_argument("--decode-only", action="store_true",
                    help="paint the arranged textons with the decoder only (no pixels "
                    "pasted under the placed elements)")
+    p.add_argument("--threads", type=types.integer(1, 256), default=min(2, usable_cores()),
+                   help="CPU threads; with 2 or more the two arrangements (the textons in "
+                   "groups, and one by one) run side by side (default: 2, or 1 on a one-core "
+                   "machine)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
