@@ -48,6 +48,7 @@ from neuraltex.texton_synthesis import (  # noqa: E402
 # ours_R: ours pasted from the reconstruction (a texture file without --source); decoded:
 # ours before the paste (the decode alone); recon: the reconstruction at its own size
 METHODS = ("ours", "ours_R", "decoded", "tiling", "random", "quilting", "recon")
+SEAM_LINES = 16  # the wrap band is also ranked among the bands at k / 16 inside
 GALLERY = ("brick", "leopard", "java_beans", "gravel", "leaves", "cells_ihc")
 
 
@@ -116,8 +117,9 @@ def tileable_seam(tex, image: np.ndarray, size, seed: int) -> dict:
                                 ArrangeSettings(seed=seed, tileable=True), labels=tex.labels,
                                 source=source)
     pic = _hwc(pic)
-    wrap, inside = base.seam_swd(pic, image)
+    wrap, inside, spread = base.seam_swd(pic, image, lines=SEAM_LINES)
     return {"seam": base.seam(pic), "seam_swd": wrap, "inner_swd": inside,
+            "inner_lines": spread, "rank": int((spread < wrap).sum()),
             "tiling_seam": base.seam(base.tiling(image, size))}
 
 
@@ -160,10 +162,12 @@ def summary(results: list[dict]) -> list[str]:
     seams = [r["tile"] for r in results if "tile" in r]
     if seams:
         ok = sum(s["seam_swd"] <= 1.1 * s["inner_swd"] for s in seams)
+        typical = sum(s["seam_swd"] <= np.quantile(s["inner_lines"], 0.9) for s in seams)
         lines += [f"tileable ({len(seams)}): seam step ratio mean "
                   f"{np.mean([s['seam'] for s in seams]):.2f} (tiling of the input: "
                   f"{np.mean([s['tiling_seam'] for s in seams]):.2f}); patch-SWD across the wrap "
-                  f"<= 1.1 x inside on {ok}/{len(seams)}"]
+                  f"<= 1.1 x inside on {ok}/{len(seams)}; within the 90th percentile of "
+                  f"the {SEAM_LINES - 1} interior lines' bands on {typical}/{len(seams)}"]
     return lines
 
 
@@ -222,7 +226,10 @@ def main() -> None:
             results.append(r)
             print(row_text(name, size, r["sc"], seconds, rep_in, kept)
                   + (f"  seam {r['tile']['seam']:.2f} swd wrap/in {r['tile']['seam_swd']:.1f}/"
-                     f"{r['tile']['inner_swd']:.1f}" if "tile" in r else ""), flush=True)
+                     f"{r['tile']['inner_swd']:.1f} interior lines "
+                     f"{r['tile']['inner_lines'].min():.1f}-{r['tile']['inner_lines'].max():.1f}"
+                     f" wrap above {r['tile']['rank']}/{SEAM_LINES - 1}"
+                     if "tile" in r else ""), flush=True)
             if k == 0 and name in GALLERY:
                 rows.append((image, pics))
                 if args.gallery:

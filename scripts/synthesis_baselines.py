@@ -185,9 +185,12 @@ def seam(image: np.ndarray) -> float:
     return float(across / max(inside, 1e-12))
 
 
-def seam_swd(image: np.ndarray, reference: np.ndarray, band: int = 16) -> tuple[float, float]:
+def seam_swd(image: np.ndarray, reference: np.ndarray, band: int = 16,
+             lines: int = 0) -> tuple[float, float] | tuple[float, float, np.ndarray]:
     """(patch-SWD to ``reference`` of the bands straddling the wrap (the picture rolled by
-    half), mean of those of the bands straddling the lines at 1/4, 1/2 and 3/4 inside)."""
+    half), mean of those of the bands straddling the lines at 1/4, 1/2 and 3/4 inside);
+    with ``lines`` also the patch-SWD of the bands at k / lines inside, k = 1 .. lines - 1
+    (how much a band's score varies with what it happens to cross)."""
     h, w = image.shape[:2]
 
     def bands(x: np.ndarray, f: float) -> np.ndarray:
@@ -197,4 +200,7 @@ def seam_swd(image: np.ndarray, reference: np.ndarray, band: int = 16) -> tuple[
         return np.concatenate([v, hz], 0)
 
     inside = np.mean([swd(reference, bands(image, f)) for f in (0.25, 0.5, 0.75)])
-    return swd(reference, bands(image, 0.0)), float(inside)
+    if not lines:
+        return swd(reference, bands(image, 0.0)), float(inside)
+    spread = np.array([swd(reference, bands(image, k / lines)) for k in range(1, lines)])
+    return swd(reference, bands(image, 0.0)), float(inside), spread

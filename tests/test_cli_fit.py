@@ -76,6 +76,24 @@ def test_reshuffle_moves_whole_elements_of_a_texture_file(tmp_path):
     near = torch.cdist(at(out), at(rec))  # (9, 9)
     assert near.amin(1).max() < 0.25 and near.diagonal().max() > 0.5
 
+    # --source: the elements move in the picture itself (its exact colours), checked
+    palette = np.array([(128, 128, 128), *colours])
+    exact = lambda path: float(np.mean(np.all(np.asarray(Image.open(path))[..., :3].reshape(  # noqa: E731
+        -1, 1, 3) == palette[None], -1).any(1)))
+    src = tmp_path / "src.png"
+    assert main(["reshuffle", str(ntex), "-o", str(src), "--seed", "2",
+                 "--source", str(tmp_path / "discs.png")]) == 0
+    assert exact(src) > 0.85 and exact(src) > exact(tmp_path / "el.png") + 0.3
+    out = load_image(src)
+    assert (out - load_image(tmp_path / "discs.png")).abs().amax(0).gt(0.3).float().mean() > 0.05
+    Image.fromarray(pic[::-1].copy()).save(tmp_path / "other.png")
+    for extra in (["--source", str(tmp_path / "other.png")],  # not the fitted picture
+                  ["--source", str(tmp_path / "discs.png"), "--by", "textons"]):
+        assert main(["reshuffle", str(ntex), "-o", str(tmp_path / "bad.png"), *extra]) == 2
+        assert not (tmp_path / "bad.png").exists()
+    assert main(["reshuffle", str(tmp_path / "discs.png"), "-o", str(tmp_path / "bad.png"),
+                 "--source", str(tmp_path / "discs.png")]) == 2  # an image is its own source
+
 
 def test_reshuffle_size_ratio_lets_objects_of_other_sizes_trade_places(tmp_path):
     """Eight large discs and one small one (area 0.56x): by default (1.1) the small disc never

@@ -108,6 +108,32 @@ def textons_of(model: TextonAutoencoder, path: Path, lim: Limits,
     return Texture(enc.textons, min(image.shape[-2:]), image, enc.masks[0])
 
 
+def source_picture(path: Path, tex: Texture, texture: Path, lim: Limits) -> Tensor:
+    """(3, h, w) the picture the texture file ``texture`` was fitted to, read from ``path``
+    and checked against the sha256 of its bytes that the file's header records (a texture
+    file does not hold the picture; its pixels make edits as sharp as the photograph)."""
+    from neuraltex.fileio import file_sha256
+    from neuraltex.imageio import load_image
+
+    if tex.header is None:
+        raise InputError(f"--source goes with a texture file (.ntex); {texture} is its own "
+                         "source")
+    if not path.is_file():
+        raise InputError(f"{path}: no such image file")
+    want = tex.header.get("source")
+    want = want if isinstance(want, dict) else {}
+    if file_sha256(path) != want.get("sha256"):
+        raise InputError(f"{path}: not the picture {texture.name} was fitted to "
+                         f"({want.get('file', 'unknown')}; its sha256 differs)")
+    return load_image(path, limits=lim)
+
+
+def add_source_option(p: argparse.ArgumentParser, what: str, note: str = "") -> None:
+    p.add_argument("--source", type=Path, metavar="IMAGE",
+                   help="with a texture file: the picture it was fitted to (checked by its "
+                   f"sha256); {what} its pixels instead of the reconstruction's{note}")
+
+
 def check_textons_out(path: Path) -> Path:
     """``path`` when texton files can be written there (.json/.pt, writable folder)."""
     from neuraltex.fileio import check_writable

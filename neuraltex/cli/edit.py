@@ -138,8 +138,9 @@ def _palette(args: argparse.Namespace, source, apps: list, regions):
 
 def cmd_reshuffle(args: argparse.Namespace) -> int:
     """Texture diversification (4.4.1). A texture file's elements (whole objects: coins,
-    bricks, stones) trade places with elements of their shape in the reconstruction, each
-    fitted to its new place (--by elements, the default for texture files:
+    bricks, stones) trade places with elements of their shape in the reconstruction (or,
+    with --source, in the picture the file was fitted to), each fitted to its new place
+    (--by elements, the default for texture files:
     :mod:`neuraltex.element_swap`); otherwise appearance features are permuted among
     effective textons of the same kind (size and appearance), the background layer keeping
     its own, and the result is decoded (--by textons)."""
@@ -161,7 +162,7 @@ def cmd_reshuffle(args: argparse.Namespace) -> int:
         print(f"{args.image}: this texture file has no elements (fit it again to move whole "
               "elements); reshuffling textons")
     kinds = None if by_elements else texton_kinds(textons, channels=plain)
-    rec = _decode(args, decoder, textons, tex.short) if by_elements else None
+    rec = _reshuffled_picture(args, decoder, textons, tex, by_elements)
     for i, path in enumerate(paths):
         seed = None if args.seed is None else args.seed + i
         if by_elements:
@@ -176,6 +177,27 @@ def cmd_reshuffle(args: argparse.Namespace) -> int:
             out = _decode(args, decoder, reshuffle(textons, seed=seed, kinds=kinds), tex.short)
         common.save(out, path)
     return 0
+
+
+def _reshuffled_picture(args: argparse.Namespace, decoder, textons, tex: common.Texture,
+                        by_elements: bool):
+    """(3, H, W) the picture whose elements trade places (--by elements): the texture file's
+    --source (checked), resampled to the output size, else its reconstruction; None for
+    --by textons, which decodes."""
+    source = None
+    if args.source is not None:
+        source = common.source_picture(args.source, tex, args.image, common.limits(args))
+        if not by_elements:
+            raise InputError("--source goes with --by elements (whole elements move in the "
+                             "picture; --by textons decodes, and moves no pixels)")
+    if not by_elements:
+        return None
+    if source is None:
+        return _decode(args, decoder, textons, tex.short)
+    from neuraltex.texton_synthesis import source_pixels
+
+    size = common.output_size(args.size, textons.canvas, tex.short, common.limits(args))
+    return source_pixels(source, size)
 
 
 def cmd_interpolate(args: argparse.Namespace) -> int:
@@ -409,6 +431,7 @@ def add_commands(sub) -> None:
                    help="with --by elements: elements trade places only with elements whose "
                    "area is within this factor, 1 to 4 (default 1.1; larger moves more objects, "
                    "each scaled to the place it takes, and shows more seams)")
+    common.add_source_option(p, "with --by elements, the elements move")
 
     p = cmd(sub, "interpolate", cmd_interpolate, "blend two textures", "image",
             f"{img}; with --frames {FRAMES_OUT}")

@@ -87,23 +87,10 @@ def _source(args: argparse.Namespace, tex: common.Texture):
     reconstruction's pixels) for a texture file without --source, or with --decode-only."""
     if args.source is None:
         return None if args.decode_only else tex.image
-    if tex.header is None:
-        raise InputError(f"--source goes with a texture file (.ntex); {args.texture} is its "
-                         "own source")
-    if args.decode_only:
+    if args.decode_only and tex.header is not None:
         raise InputError("--source and --decode-only exclude each other (--decode-only "
                          "pastes no pixels)")
-    from neuraltex.fileio import file_sha256
-    from neuraltex.imageio import load_image
-
-    if not args.source.is_file():
-        raise InputError(f"{args.source}: no such image file")
-    want = tex.header.get("source")
-    want = want if isinstance(want, dict) else {}
-    if file_sha256(args.source) != want.get("sha256"):
-        raise InputError(f"{args.source}: not the picture {args.texture.name} was fitted to "
-                         f"({want.get('file', 'unknown')}; its sha256 differs)")
-    return load_image(args.source, limits=common.limits(args))
+    return common.source_picture(args.source, tex, args.texture, common.limits(args))
 
 
 def _synthesize(args, decoder, textons, size: tuple[int, int], short: int, labels=None,
@@ -173,10 +160,8 @@ def add_commands(sub) -> None:
                    help="also write the arranged textons as SVG ellipses")
     p.add_argument("--iterations", type=types.integer(1, 50), default=3,
                    help="synthesis iterations (search + assignment) per level (default 3)")
-    p.add_argument("--source", type=Path, metavar="IMAGE",
-                   help="with a texture file: the picture it was fitted to (checked by its "
-                   "sha256); the placed elements bring its pixels instead of the "
-                   "reconstruction's (an image input is always its own source)")
+    common.add_source_option(p, "the placed elements bring",
+                             " (an image input is always its own source)")
     p.add_argument("--decode-only", action="store_true",
                    help="paint the arranged textons with the decoder only (no pixels "
                    "pasted under the placed elements)")

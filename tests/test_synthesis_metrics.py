@@ -1,0 +1,40 @@
+"""The seam measures of scripts/synthesis_baselines.py (used by scripts/eval_synthesis.py)."""
+
+import sys
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "scripts"))
+
+import synthesis_baselines as base  # noqa: E402
+
+
+def _field(seamless: bool, seed: int = 0) -> np.ndarray:
+    """96 x 96 of a periodic random field (low-pass filtered noise): the whole period, which
+    is seamless; not seamless: 96 x 96 cut from a period of 128, so the edges that meet
+    across the wrap were 32 px apart."""
+    n = 96 if seamless else 128
+    g = np.random.default_rng(seed)
+    f = np.fft.fftfreq(n) * n / 96  # the same grain at either period
+    low = np.exp(-(f[:, None] ** 2 + f[None, :] ** 2) / (2 * 0.08 ** 2))[..., None]
+    pic = np.fft.ifft2(np.fft.fft2(g.standard_normal((n, n, 3)), axes=(0, 1)) * low,
+                       axes=(0, 1)).real[:96, :96]
+    return (0.5 + 0.15 * pic / pic.std()).astype(np.float32)
+
+
+def test_seam_measures_on_a_seamless_field_and_on_a_cut_one():
+    """The step ratio singles out a wrap whose edges do not belong together; the band
+    patch-SWD of a seamless wrap lies among those of the interior lines (it varies with
+    what a band crosses: docs/synthesis.md)."""
+    ref = _field(True, seed=1)  # another draw of the field: no patch is an exact copy
+    for seamless in (True, False):
+        pic = _field(seamless)
+        wrap, inside, spread = base.seam_swd(pic, ref, band=8, lines=8)
+        assert spread.shape == (7,)
+        assert np.isclose(inside, spread[[1, 3, 5]].mean())  # the lines at 1/4, 1/2, 3/4
+        assert wrap == base.seam_swd(pic, ref, band=8)[0]
+        if seamless:
+            assert spread.min() <= wrap <= spread.max() and base.seam(pic) < 1.3
+        else:
+            assert base.seam(pic) > 3
