@@ -46,13 +46,10 @@ def timed(cmd: list[str]) -> tuple[float, float, float]:
 
 
 def main() -> None:
-    from eval_synthesis import texture_file
+    from eval_synthesis import add_texture_options, texture_file
 
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("--textures", type=Path, default=ROOT / "data" / "real_textures")
-    p.add_argument("--cache", type=Path, default=Path("/tmp/eval_synthesis"),
-                   help="texture files (.ntex) are fitted once and kept here")
-    p.add_argument("--steps", type=int, default=300, help="fit steps per texture")
+    add_texture_options(p)
     p.add_argument("--size", type=int, nargs=2, default=(512, 512), metavar=("H", "W"))
     p.add_argument("--threads", type=int, nargs="+", default=[2, 1],
                    help="thread counts to time (--threads of the command)")

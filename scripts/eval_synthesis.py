@@ -159,16 +159,27 @@ def summary(results: list[dict]) -> list[str]:
                   f"  repetition not closer to the tiling's than to the input's: {no_rep}/{n}",
                   f"  ours seconds: mean {np.mean([r['seconds'] for r in rs]):.1f}, "
                   f"max {np.max([r['seconds'] for r in rs]):.1f} (target <= 30 at 512x512)"]
-    seams = [r["tile"] for r in results if "tile" in r]
-    if seams:
-        ok = sum(s["seam_swd"] <= 1.1 * s["inner_swd"] for s in seams)
-        typical = sum(s["seam_swd"] <= np.quantile(s["inner_lines"], 0.9) for s in seams)
-        lines += [f"tileable ({len(seams)}): seam step ratio mean "
-                  f"{np.mean([s['seam'] for s in seams]):.2f} (tiling of the input: "
-                  f"{np.mean([s['tiling_seam'] for s in seams]):.2f}); patch-SWD across the wrap "
-                  f"<= 1.1 x inside on {ok}/{len(seams)}; within the 90th percentile of "
-                  f"the {SEAM_LINES - 1} interior lines' bands on {typical}/{len(seams)}"]
-    return lines
+    return lines + seam_summary([r["tile"] for r in results if "tile" in r])
+
+
+def seam_summary(seams: list[dict]) -> list[str]:
+    if not seams:
+        return []
+    n = len(seams)
+    ok = sum(s["seam_swd"] <= 1.1 * s["inner_swd"] for s in seams)
+    typical = sum(s["seam_swd"] <= np.quantile(s["inner_lines"], 0.9) for s in seams)
+    steps = sum(s["seam"] <= 1.1 for s in seams)
+    return [f"tileable ({n}): seam step ratio mean {np.mean([s['seam'] for s in seams]):.2f} "
+            f"(tiling of the input: {np.mean([s['tiling_seam'] for s in seams]):.2f}), "
+            f"<= 1.1 on {steps}/{n}; band patch-SWD across the wrap <= 1.1 x inside (the lines "
+            f"at 1/4, 1/2, 3/4) on {ok}/{n}; within the 90th percentile of the "
+            f"{SEAM_LINES - 1} interior lines' bands on {typical}/{n}"]
+
+
+def seam_text(tile: dict) -> str:
+    return (f"  seam {tile['seam']:.2f} swd wrap/in {tile['seam_swd']:.1f}/"
+            f"{tile['inner_swd']:.1f} interior lines {tile['inner_lines'].min():.1f}-"
+            f"{tile['inner_lines'].max():.1f} wrap above {tile['rank']}/{SEAM_LINES - 1}")
 
 
 def gallery(rows: list[tuple[np.ndarray, dict]], path: Path) -> None:
@@ -190,16 +201,23 @@ def gallery(rows: list[tuple[np.ndarray, dict]], path: Path) -> None:
     print(f"wrote {path}")
 
 
-def main() -> None:
-    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+def add_texture_options(p: argparse.ArgumentParser) -> None:
+    """--textures, --cache and --steps: where the real textures and their texture files are."""
     p.add_argument("--textures", type=Path, default=ROOT / "data" / "real_textures")
     p.add_argument("--cache", type=Path, default=Path("/tmp/eval_synthesis"),
                    help="texture files (.ntex) are fitted once and kept here")
     p.add_argument("--steps", type=int, default=300, help="fit steps per texture")
+
+
+def main() -> None:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    add_texture_options(p)
     p.add_argument("--sizes", nargs="+", default=["512x512", "256x768"], help="HxW outputs")
     p.add_argument("--only", nargs="+", help="texture names (default: all)")
     p.add_argument("--tileable", action="store_true", help="also score ours tileable")
     p.add_argument("--gallery", type=Path, help="write the gallery (JPEG) here")
+    p.add_argument("--seam-only", action="store_true",
+                   help="only ours tileable at the first size, scored by its seam")
     p.add_argument("--seed", type=int, default=0)
     args = p.parse_args()
     torch.set_num_threads(1)
@@ -211,11 +229,16 @@ def main() -> None:
     sizes = [tuple(int(v) for v in s.split("x")) for s in args.sizes]
     names = args.only or sorted((f.stem for f in args.textures.glob("*.png")),
                                 key=lambda n: (n not in GALLERY, n))  # the gallery's first
-    results, rows = [], []
+    results, rows, seams = [], [], []
     for name in names:
         path = args.textures / f"{name}.png"
         tex = common.textons_of(model, texture_file(path, args.cache, args.steps), Limits())
         image = load_image(path).permute(1, 2, 0).numpy()
+        if args.seam_only:
+            seams.append(tileable_seam(tex, image, sizes[0], args.seed))
+            print(f"{name:12s} {sizes[0][0]}x{sizes[0][1]:<4d}" + seam_text(seams[-1]),
+                  flush=True)
+            continue
         rep_in = base.repetition(image)
         for k, size in enumerate(sizes):
             pics, seconds, kept = outputs(model, tex, image, size, args.seed)
@@ -225,15 +248,14 @@ def main() -> None:
                 r["tile"] = tileable_seam(tex, image, size, args.seed)
             results.append(r)
             print(row_text(name, size, r["sc"], seconds, rep_in, kept)
-                  + (f"  seam {r['tile']['seam']:.2f} swd wrap/in {r['tile']['seam_swd']:.1f}/"
-                     f"{r['tile']['inner_swd']:.1f} interior lines "
-                     f"{r['tile']['inner_lines'].min():.1f}-{r['tile']['inner_lines'].max():.1f}"
-                     f" wrap above {r['tile']['rank']}/{SEAM_LINES - 1}"
-                     if "tile" in r else ""), flush=True)
+                  + (seam_text(r["tile"]) if "tile" in r else ""), flush=True)
             if k == 0 and name in GALLERY:
                 rows.append((image, pics))
                 if args.gallery:
                     gallery(rows, args.gallery)
+    if args.seam_only:
+        print("\n".join(seam_summary(seams)))
+        return
     print(f"\ncolumns: swd gram for {', '.join(METHODS)}")
     print("\n".join(summary(results)))
 
