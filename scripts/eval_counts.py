@@ -1,0 +1,96 @@
+"""Textons per visible element on hand-counted real textures (issue 16's real-texture target:
+one texton per element).
+
+For each texture of data/real_textures/counts.csv (the hand count and how it was made): how
+many segments or textons each method gives, and that number over the hand count.
+
+- ``E_s shipped`` / ``E_s CHECKPOINT``: the learned segmenter's effective textons (masks of
+  queries with p > 0.5 covering at least ``MIN_SHARE`` of the picture), the shipped model and
+  optionally another export (``--checkpoint``, e.g. the long E_s run);
+- ``fit textons`` / ``fit elements``: a texture file's effective textons, and its elements
+  (neuraltex.texton_elements: textons grouped into objects) other than background ones;
+- ``felzenszwalb`` / ``kmeans``: the classical segmenters at their tuned defaults
+  (docs/baselines.md), segments of at least ``MIN_SHARE``.
+
+    python scripts/eval_counts.py --cache /tmp/eval_synthesis \
+        --checkpoint runs/long_segmenter/model.safetensors
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import sys
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(ROOT / "scripts"))
+
+MIN_SHARE = 0.001  # smallest segment counted, share of the picture's pixels
+
+
+def segments(labels: np.ndarray, skip_zero: bool) -> int:
+    """Segments of ``labels`` (H, W) with at least MIN_SHARE of the pixels (label 0 left out
+    when it means "no texton")."""
+    ids, area = np.unique(labels, return_counts=True)
+    keep = area >= MIN_SHARE * labels.size
+    if skip_zero:
+        keep &= ids != 0
+    return int(keep.sum())
+
+
+def fitted(model, path: Path) -> tuple[int, int]:
+    """(effective textons, non-background elements) of a texture file."""
+    from neuraltex.texton_elements import element_shapes
+    from neuraltex.texture_file import load_texture
+
+    tex = load_texture(path, model)
+    textons = int((tex.textons.delta[0] > 0.5).sum())
+    if tex.elements is None or tex.labels is None:
+        return textons, -1
+    shapes = element_shapes(tex.labels, tex.elements)
+    return textons, int((~shapes.background & (shapes.area > 0)).sum())
+
+
+def main() -> None:
+    from eval_synthesis import add_texture_options, texture_file
+
+    from neuraltex.baselines import get_segmenter
+    from neuraltex.cli import common
+    from neuraltex.imageio import load_image
+
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    add_texture_options(p)
+    p.add_argument("--checkpoint", type=Path, help="another E_s export to count beside the "
+                   "shipped model's")
+    args = p.parse_args()
+    with open(args.textures / "counts.csv", newline="") as f:
+        counts = [(r["file"], int(r["elements"])) for r in csv.DictReader(f)]
+    model = common.load(None)
+    methods = {"E_s shipped": (get_segmenter("model"), True)}
+    if args.checkpoint:
+        methods[f"E_s {args.checkpoint.parent.name or args.checkpoint.stem}"] = (
+            get_segmenter("model", checkpoint=str(args.checkpoint)), True)
+    methods |= {name: (get_segmenter(name), False) for name in ("felzenszwalb", "kmeans")}
+    head = ["texture", "hand count", *methods, "fit textons", "fit elements"]
+    print("| " + " | ".join(head) + " |\n|" + "---|" * len(head))
+    ratios: dict[str, list[float]] = {h: [] for h in head[2:]}
+    for name, hand in counts:
+        image = load_image(args.textures / name)
+        arr = image.permute(1, 2, 0).numpy().astype(np.float64)
+        found = {m: segments(seg(arr), skip) for m, (seg, skip) in methods.items()}
+        ntex = texture_file(args.textures / name, args.cache, args.steps)
+        found["fit textons"], found["fit elements"] = fitted(model, ntex)
+        for m, n in found.items():
+            ratios[m].append(n / hand)
+        print(f"| {Path(name).stem} | {hand} | "
+              + " | ".join(f"{n} ({n / hand:.2f}x)" for n in found.values()) + " |", flush=True)
+    print("| **mean per element** | | " + " | ".join(f"{np.mean(r):.2f}x" for r in
+                                                     ratios.values()) + " |")
+
+
+if __name__ == "__main__":
+    main()
