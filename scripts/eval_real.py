@@ -6,7 +6,8 @@ computed here on the same images:
 - kmeans8: the image quantized to 8 k-means colours;
 - plain: the fit's PSNR before the detail sprites (neuraltex.texton_detail), i.e. G alone;
 - reshuffle: patch-SWD(input, reshuffle by elements, what ``neuraltex reshuffle`` does with a
-  texture file: elements trade places in the reconstruction, neuraltex.element_swap) vs
+  texture file: elements trade places in the reconstruction, neuraltex.element_swap; and
+  swd_shuf_src / change_src: in the input itself, what ``reshuffle --source`` does) vs
   patch-SWD(input, reconstruction) and vs a random-placement reference (the same textons at
   uniform random positions, same decoder); swd_shuf_d decodes the same elements' textons moved
   instead (the previous version: the tuned decoder renders the new layout); swd_shuf_t is the
@@ -58,8 +59,8 @@ from neuraltex.tuned_decoder import tuned_model  # noqa: E402
 REAL = Path(__file__).resolve().parents[1] / "data" / "real_textures"
 VISIBLE = 0.005  # mean |reshuffle - reconstruction| of a reshuffle that changes the picture
 COLS = ("flat", "blur", "kmeans8", "plain", "fit", "ssim_blur", "ssim_fit", "swd_rec",
-        "swd_shuf", "swd_shuf_d", "swd_shuf_t", "swd_rand", "moved", "change", "seconds",
-        "steps", "textons", "kib", "edit_s")
+        "swd_shuf", "swd_shuf_src", "swd_shuf_d", "swd_shuf_t", "swd_rand", "moved", "change",
+        "change_src", "seconds", "steps", "textons", "kib", "edit_s")
 
 
 def references(image: torch.Tensor) -> dict[str, torch.Tensor]:
@@ -116,6 +117,7 @@ def evaluate(model, image: torch.Tensor, settings: FitSettings, workdir: Path) -
         shuf, moved, total = swap_and_count(decoder.decode(tex.textons, size)[0], tex.labels,
                                             tex.elements, seed=1)
         row["edit_s"] = time.perf_counter() - start
+        shuf_src, _, _ = swap_and_count(image, tex.labels, tex.elements, seed=1)  # --source
         shuffled = reshuffle_elements(tex.textons, tex.labels, tex.elements, channels=plain,
                                       seed=1)
         shuf_d = decoder.decode(shuffled, size)[0]
@@ -127,7 +129,8 @@ def evaluate(model, image: torch.Tensor, settings: FitSettings, workdir: Path) -
                swd_shuf_t=swd(image, shuf_t), moved=moved / max(total, 1),
                swd_rand=swd(image, rand), seconds=fit.seconds + fit.detail_seconds,
                steps=fit.steps, textons=fit.textons.num_textons, segmenter=fit.segmenter,
-               change=(shuf - rec).abs().mean().item())
+               change=(shuf - rec).abs().mean().item(), swd_shuf_src=swd(image, shuf_src),
+               change_src=(shuf_src - image).abs().mean().item())
     row["_pictures"] = (rec, shuf, shuf_d, shuf_t)
     return row
 
@@ -158,7 +161,7 @@ def table(rows: list[tuple[str, dict]]) -> str:
 
 
 def _fmt(x, column: str = "") -> str:
-    if column == "change":
+    if column in ("change", "change_src"):
         return f"{x:.3f}"
     if column == "moved":
         return f"{100 * x:.0f} %"
@@ -186,6 +189,12 @@ def summary(rows: list[tuple[str, dict]]) -> list[str]:
         f"the same elements' textons moved and decoded (previous version): <= 1.25 x "
         f"reconstruction on {sum(x['swd_shuf_d'] <= 1.25 * x['swd_rec'] for x in r)}/{n}, "
         f"mean SWD {mean('swd_shuf_d'):.2f}",
+        f"the reshuffle in the source picture (reshuffle --source; the same plan of moves "
+        f"drawn on the input): <= 1.25 x reconstruction on "
+        f"{sum(x['swd_shuf_src'] <= 1.25 * x['swd_rec'] for x in r)}/{n}, below the "
+        f"reshuffle in the reconstruction on {sum(x['swd_shuf_src'] < x['swd_shuf'] for x in r)}"
+        f"/{n} (mean SWD {mean('swd_shuf_src'):.2f} vs {mean('swd_shuf'):.2f}); mean change "
+        f"against the input {mean('change_src'):.3f}",
         f"within 1.25 x and changing the picture (mean |reshuffle - reconstruction| >= "
         f"{VISIBLE}): {visible}/{n}",
         f"fit seconds mean {mean('seconds'):.1f} (max {max(x['seconds'] for x in r):.1f}); "
