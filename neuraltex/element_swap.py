@@ -227,13 +227,19 @@ def swap_elements(image: Tensor, labels: np.ndarray, groups: np.ndarray, *,
 
 def swap_and_count(image: Tensor, labels: np.ndarray, groups: np.ndarray, *,
                    seed: int | None = None, size_ratio: float = SIZE_RATIO,
-                   margin: float = MARGIN, feather: float = FEATHER
-                   ) -> tuple[Tensor, int, int]:
+                   margin: float = MARGIN, feather: float = FEATHER,
+                   plan_on: Tensor | None = None) -> tuple[Tensor, int, int]:
     """:func:`swap_elements`, and how many elements moved of those that are not
-    background: -> (picture (3, H, W), moved, elements)."""
+    background: -> (picture (3, H, W), moved, elements). ``plan_on`` (3, H, W): the picture
+    whose ground colours choose the partners (default ``image``): the reconstruction, when
+    ``image`` is the source photograph. On an exactly repeating picture (a tiled pattern)
+    every element's best partners are its identical copies, and swaps planned on it change
+    nothing; the reconstruction's copies differ slightly, and the same plan drawn in the
+    photograph moves what the reconstruction's reshuffle moves."""
     H, W = image.shape[-2:]
     labels = labels_at(labels, (H, W))
-    shapes, place, outline, target = plan(image, labels, groups, seed, size_ratio, margin)
+    shapes, place, outline, target = plan(image if plan_on is None else plan_on, labels,
+                                          groups, seed, size_ratio, margin)
     counts = int((target != np.arange(len(target))).sum()), int((~shapes.background).sum())
     grid, moved = source_grid(shapes, target, place)
     if not moved.any():

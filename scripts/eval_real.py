@@ -117,7 +117,8 @@ def evaluate(model, image: torch.Tensor, settings: FitSettings, workdir: Path) -
         shuf, moved, total = swap_and_count(decoder.decode(tex.textons, size)[0], tex.labels,
                                             tex.elements, seed=1)
         row["edit_s"] = time.perf_counter() - start
-        shuf_src, _, _ = swap_and_count(image, tex.labels, tex.elements, seed=1)  # --source
+        shuf_src, _, _ = swap_and_count(image, tex.labels, tex.elements, seed=1,
+                                        plan_on=rec)  # reshuffle --source
         shuffled = reshuffle_elements(tex.textons, tex.labels, tex.elements, channels=plain,
                                       seed=1)
         shuf_d = decoder.decode(shuffled, size)[0]
@@ -189,8 +190,8 @@ def summary(rows: list[tuple[str, dict]]) -> list[str]:
         f"the same elements' textons moved and decoded (previous version): <= 1.25 x "
         f"reconstruction on {sum(x['swd_shuf_d'] <= 1.25 * x['swd_rec'] for x in r)}/{n}, "
         f"mean SWD {mean('swd_shuf_d'):.2f}",
-        f"the reshuffle in the source picture (reshuffle --source; the same plan of moves "
-        f"drawn on the input): <= 1.25 x reconstruction on "
+        f"the reshuffle in the source picture (reshuffle --source: the reconstruction's plan "
+        f"of moves drawn in the input): <= 1.25 x reconstruction on "
         f"{sum(x['swd_shuf_src'] <= 1.25 * x['swd_rec'] for x in r)}/{n}, below the "
         f"reshuffle in the reconstruction on {sum(x['swd_shuf_src'] < x['swd_shuf'] for x in r)}"
         f"/{n} (mean SWD {mean('swd_shuf_src'):.2f} vs {mean('swd_shuf'):.2f}); mean change "
@@ -212,6 +213,7 @@ def main() -> None:
     ap.add_argument("--detail", type=int,
                     help="fit --detail: sprite side (default: auto; 0: none)")
     ap.add_argument("--limit", type=int, help="only the first N real images")
+    ap.add_argument("--only", nargs="+", help="only these real images (names without .png)")
     ap.add_argument("--procedural", type=int, default=0, help="also N procedural images")
     ap.add_argument("--init-compare", type=int, default=0,
                     help="tune the first N images from random weights too, same budget")
@@ -233,7 +235,8 @@ def main() -> None:
     print(f"start-up (import + load model): {time.perf_counter() - start:.2f} s")
     settings = FitSettings(segmenter=args.segmenter, seconds=None if args.steps else args.seconds,
                            steps=args.steps, detail=args.detail)
-    images = [(p.stem, load_image(p)) for p in sorted(REAL.glob("*.png"))][:args.limit]
+    images = [(p.stem, load_image(p)) for p in sorted(REAL.glob("*.png"))
+              if not args.only or p.stem in args.only][:args.limit]
     images += procedural_images(args.procedural)
     if args.init_only:
         print("\n".join(init_compare(images[:args.init_compare], settings, args.init_chain,

@@ -162,14 +162,14 @@ def cmd_reshuffle(args: argparse.Namespace) -> int:
         print(f"{args.image}: this texture file has no elements (fit it again to move whole "
               "elements); reshuffling textons")
     kinds = None if by_elements else texton_kinds(textons, channels=plain)
-    rec = _reshuffled_picture(args, decoder, textons, tex, by_elements)
+    rec, plan_on = _reshuffled_picture(args, decoder, textons, tex, by_elements)
     for i, path in enumerate(paths):
         seed = None if args.seed is None else args.seed + i
         if by_elements:
             ratio = args.size_ratio or SIZE_RATIO
             seed = random.randrange(2**31) if seed is None else seed  # one draw for both
             out, moved, total = swap_and_count(rec, tex.labels, tex.elements, seed=seed,
-                                               size_ratio=ratio)
+                                               size_ratio=ratio, plan_on=plan_on)
             print(f"{path}: {moved} of {total} elements trade places (the others have no "
                   f"partner of their outline, of their size within --size-ratio {ratio:g} "
                   "and on a ground like theirs; the background stays)")
@@ -181,9 +181,11 @@ def cmd_reshuffle(args: argparse.Namespace) -> int:
 
 def _reshuffled_picture(args: argparse.Namespace, decoder, textons, tex: common.Texture,
                         by_elements: bool):
-    """(3, H, W) the picture whose elements trade places (--by elements): the texture file's
-    --source (checked), resampled to the output size, else its reconstruction; None for
-    --by textons, which decodes."""
+    """(picture, plan_on): the picture (3, H, W) whose elements trade places (--by elements),
+    the texture file's --source (checked) resampled to the output size, else its
+    reconstruction; and the picture the swaps are planned on: the reconstruction, so that a
+    source moves what the reconstruction's reshuffle moves (None: the picture itself).
+    (None, None) for --by textons, which decodes."""
     source = None
     if args.source is not None:
         source = common.source_picture(args.source, tex, args.image, common.limits(args))
@@ -191,13 +193,13 @@ def _reshuffled_picture(args: argparse.Namespace, decoder, textons, tex: common.
             raise InputError("--source goes with --by elements (whole elements move in the "
                              "picture; --by textons decodes, and moves no pixels)")
     if not by_elements:
-        return None
+        return None, None
+    rec = _decode(args, decoder, textons, tex.short)
     if source is None:
-        return _decode(args, decoder, textons, tex.short)
+        return rec, None
     from neuraltex.texton_synthesis import source_pixels
 
-    size = common.output_size(args.size, textons.canvas, tex.short, common.limits(args))
-    return source_pixels(source, size)
+    return source_pixels(source, rec.shape[-2:]), rec
 
 
 def cmd_interpolate(args: argparse.Namespace) -> int:
