@@ -232,10 +232,10 @@ def swap_and_count(image: Tensor, labels: np.ndarray, groups: np.ndarray, *,
     """:func:`swap_elements`, and how many elements moved of those that are not
     background: -> (picture (3, H, W), moved, elements). ``plan_on`` (3, H, W): the picture
     whose ground colours choose the partners (default ``image``): the reconstruction, when
-    ``image`` is the source photograph. On an exactly repeating picture (a tiled pattern)
-    every element's best partners are its identical copies, and swaps planned on it change
-    nothing; the reconstruction's copies differ slightly, and the same plan drawn in the
-    photograph moves what the reconstruction's reshuffle moves."""
+    ``image`` is the source photograph, so that the same places change hands as in the
+    reconstruction's reshuffle. (On an exactly repeating picture, a tiled pattern, the
+    partners an element finds are its own copies in the other tiles, whichever picture the
+    plan is made on: drawn in the photograph such swaps change nothing.)"""
     H, W = image.shape[-2:]
     labels = labels_at(labels, (H, W))
     shapes, place, outline, target = plan(image if plan_on is None else plan_on, labels,
