@@ -199,8 +199,14 @@ def seam_swd(image: np.ndarray, reference: np.ndarray, band: int = 16,
         hz = x[h // 2 - band:h // 2 + band].transpose(1, 0, 2)  # (w, 2 band, 3)
         return np.concatenate([v, hz], 0)
 
-    inside = np.mean([swd(reference, bands(image, f)) for f in (0.25, 0.5, 0.75)])
+    scores: dict[float, float] = {}  # band position -> its patch-SWD, each scored once
+
+    def score(f: float) -> float:
+        if f not in scores:
+            scores[f] = swd(reference, bands(image, f))
+        return scores[f]
+
+    wrap, inside = score(0.0), float(np.mean([score(f) for f in (0.25, 0.5, 0.75)]))
     if not lines:
-        return swd(reference, bands(image, 0.0)), float(inside)
-    spread = np.array([swd(reference, bands(image, k / lines)) for k in range(1, lines)])
-    return swd(reference, bands(image, 0.0)), float(inside), spread
+        return wrap, inside
+    return wrap, inside, np.array([score(k / lines) for k in range(1, lines)])
