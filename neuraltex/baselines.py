@@ -110,7 +110,7 @@ def kmeans_segmenter(k: float, fit_pixels: int = 4096) -> Segmenter:
     return segment
 
 
-MODEL_LABELS = ("masks", "splats", "refined")
+MODEL_LABELS = ("masks", "splats", "refined", "guided")
 
 
 def model_segmenter(checkpoint: str, device: str = "cpu", labels: str = "masks",
@@ -125,10 +125,14 @@ def model_segmenter(checkpoint: str, device: str = "cpu", labels: str = "masks",
     ``labels="refined"``: the ``masks`` labels with every fine SLIC superpixel of the
     full-resolution image given its majority label (:func:`neuraltex.segmenters.refine_to_image`,
     4 superpixels per label), so boundaries follow image edges instead of E_s's stride 4.
+    ``labels="guided"``: the upsampled masks relabelled pixel by pixel with each label's colour
+    model (:func:`neuraltex.mask_refinement.colour_guided_labels`); the queries that are not
+    effective form one background label.
     """
     import torch
     import torch.nn.functional as F
 
+    from neuraltex.mask_refinement import colour_guided_labels
     from neuraltex.model import DEFAULT_MODEL, load_model
     from neuraltex.segmenters import refine_to_image
     from neuraltex.splatting import opacity_maps
@@ -151,7 +155,11 @@ def model_segmenter(checkpoint: str, device: str = "cpu", labels: str = "masks",
             best = masks[0].argmax(0)  # (H, W)
             effective = enc.textons.p[0] > 0.5  # (n,)
             label = torch.where(effective[best], best + 1, torch.zeros_like(best))
-            if labels == "refined":
+            if labels == "guided":  # label 0: the queries that are not effective, together
+                layers = torch.cat([masks[0, ~effective].sum(0, keepdim=True),
+                                    masks[0, effective]])  # (1 + k, H, W)
+                label = colour_guided_labels(layers, x)
+            elif labels == "refined":
                 coarse = label.cpu().numpy()
                 n = len(np.unique(coarse))
                 label = torch.from_numpy(refine_to_image(coarse, image.astype(np.float64), 4 * n))

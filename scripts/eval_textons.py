@@ -47,7 +47,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="model for --method model (default: the shipped model)")
     p.add_argument("--model-labels", choices=MODEL_LABELS, default="masks",
                    help="--method model: pixel labels from the E_s masks (stride 4), the splats, "
-                        "or the masks refined to image edges by SLIC majority vote")
+                        "the masks refined to image edges by SLIC majority vote, or relabelled "
+                        "pixel by pixel by each texton's colour (guided)")
     p.add_argument("--num-queries", type=int, default=None,
                    help="--method model: resample E_s's query grid to this many queries "
                         "(no training; for dense textures, e.g. 196)")
