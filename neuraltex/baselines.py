@@ -114,7 +114,8 @@ MODEL_LABELS = ("masks", "splats", "refined", "guided")
 
 
 def model_segmenter(checkpoint: str, device: str = "cpu", labels: str = "masks",
-                    num_queries: int | None = None) -> Segmenter:
+                    num_queries: int | None = None,
+                    guide: tuple[float, float] | None = None) -> Segmenter:
     """The learned texton model as a segmenter: the one hook the autoencoder plugs into.
 
     ``labels="masks"``: each pixel goes to the query whose mask S (E_s) is largest there, i.e.
@@ -126,13 +127,13 @@ def model_segmenter(checkpoint: str, device: str = "cpu", labels: str = "masks",
     full-resolution image given its majority label (:func:`neuraltex.segmenters.refine_to_image`,
     4 superpixels per label), so boundaries follow image edges instead of E_s's stride 4.
     ``labels="guided"``: the upsampled masks relabelled pixel by pixel with each label's colour
-    model (:func:`neuraltex.mask_refinement.colour_guided_labels`); the queries that are not
-    effective form one background label.
+    model (:func:`neuraltex.mask_refinement.colour_guided_labels`, with ``guide`` = (weight,
+    reach), default its own); the queries that are not effective form one background label.
     """
     import torch
     import torch.nn.functional as F
 
-    from neuraltex.mask_refinement import colour_guided_labels
+    from neuraltex.mask_refinement import REACH, WEIGHT, colour_guided_labels
     from neuraltex.model import DEFAULT_MODEL, load_model
     from neuraltex.segmenters import refine_to_image
     from neuraltex.splatting import opacity_maps
@@ -143,6 +144,7 @@ def model_segmenter(checkpoint: str, device: str = "cpu", labels: str = "masks",
     if labels not in MODEL_LABELS:
         raise ValueError(f"labels must be one of {', '.join(MODEL_LABELS)}, got {labels!r}")
     model = load_model(checkpoint, device, num_queries=num_queries)
+    weight, reach = guide or (WEIGHT, REACH)
 
     @torch.no_grad()
     def segment(image: np.ndarray) -> np.ndarray:
@@ -158,7 +160,7 @@ def model_segmenter(checkpoint: str, device: str = "cpu", labels: str = "masks",
             if labels == "guided":  # label 0: the queries that are not effective, together
                 layers = torch.cat([masks[0, ~effective].sum(0, keepdim=True),
                                     masks[0, effective]])  # (1 + k, H, W)
-                label = colour_guided_labels(layers, x)
+                label = colour_guided_labels(layers, x, weight, reach)
             elif labels == "refined":
                 coarse = label.cpu().numpy()
                 n = len(np.unique(coarse))
@@ -196,11 +198,13 @@ METHODS: dict[str, Method] = {m.name: m for m in [
 
 def get_segmenter(name: str, value: float | None = None,
                   checkpoint: str | None = None, model_labels: str = "masks",
-                  num_queries: int | None = None) -> Segmenter:
-    """Build method ``name`` (a key of ``METHODS`` or ``"model"``, with ``model_labels`` and
-    ``num_queries`` as in :func:`model_segmenter`) at ``value``."""
+                  num_queries: int | None = None,
+                  guide: tuple[float, float] | None = None) -> Segmenter:
+    """Build method ``name`` (a key of ``METHODS`` or ``"model"``, with ``model_labels``,
+    ``num_queries`` and ``guide`` as in :func:`model_segmenter`) at ``value``."""
     if name == "model":
-        return model_segmenter(checkpoint or "", labels=model_labels, num_queries=num_queries)
+        return model_segmenter(checkpoint or "", labels=model_labels, num_queries=num_queries,
+                               guide=guide)
     if name not in METHODS:
         raise InputError(f"unknown method {name!r}; choose from "
                          f"{', '.join([*METHODS, 'model'])}")

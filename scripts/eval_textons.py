@@ -27,6 +27,7 @@ from neuraltex.errors import InputError, cli_entry  # noqa: E402
 from neuraltex.evaluation import family_table, score, summary_table, tune  # noqa: E402
 from neuraltex.fileio import write_text_atomic  # noqa: E402
 from neuraltex.limits import MAX_TEXTONS  # noqa: E402
+from neuraltex.mask_refinement import REACH, WEIGHT  # noqa: E402
 
 LEGEND = """\
 Metrics (neuraltex/metrics.py): **miou** = Hungarian-matched mean IoU over ground-truth
@@ -49,6 +50,12 @@ def build_parser() -> argparse.ArgumentParser:
                    help="--method model: pixel labels from the E_s masks (stride 4), the splats, "
                         "the masks refined to image edges by SLIC majority vote, or relabelled "
                         "pixel by pixel by each texton's colour (guided)")
+    p.add_argument("--guided-weight", type=float, default=WEIGHT,
+                   help="--model-labels guided: weight of each texton's colour log-likelihood "
+                        "against its log mask (0: the masks' argmax)")
+    p.add_argument("--guided-reach", type=float, default=REACH,
+                   help="--model-labels guided: a texton is a candidate label where its mask "
+                        "is at least this")
     p.add_argument("--num-queries", type=int, default=None,
                    help="--method model: resample E_s's query grid to this many queries "
                         "(no training; for dense textures, e.g. 196)")
@@ -81,6 +88,8 @@ def main(argv: list[str] | None = None) -> int:
         raise InputError("--param needs exactly one baseline --method")
     if args.num_queries is not None and not 1 <= args.num_queries <= MAX_TEXTONS:
         raise InputError(f"--num-queries must be in [1, {MAX_TEXTONS}]")
+    if not (args.guided_weight >= 0 and 0 <= args.guided_reach <= 1):
+        raise InputError("--guided-weight must be >= 0 and --guided-reach in [0, 1]")
     if args.limit is not None and args.limit < 1:
         raise InputError("--limit must be >= 1")
     progress = not args.quiet
@@ -102,8 +111,11 @@ def main(argv: list[str] | None = None) -> int:
         if name == "model":
             segment = get_segmenter("model", checkpoint=args.checkpoint,
                                     model_labels=args.model_labels,
-                                    num_queries=args.num_queries)
+                                    num_queries=args.num_queries,
+                                    guide=(args.guided_weight, args.guided_reach))
             params[name] = f"labels={args.model_labels}" + (
+                f" weight={args.guided_weight:g} reach={args.guided_reach:g}"
+                if args.model_labels == "guided" else "") + (
                 f" queries={args.num_queries}" if args.num_queries else "")
         else:
             m = METHODS[name]

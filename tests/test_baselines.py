@@ -79,7 +79,8 @@ def test_eval_script_end_to_end(tmp_path, capsys):
 
 
 def test_eval_script_model_options(tmp_path, capsys):
-    """--families, --model-labels refined and --num-queries (issue 16), one image."""
+    """--families, --model-labels refined / guided, --guided-weight and --num-queries (issue
+    16), one image each."""
     sys.path.insert(0, str(ROOT / "scripts"))
     try:
         import eval_textons
@@ -91,8 +92,13 @@ def test_eval_script_model_options(tmp_path, capsys):
                               "--markdown", str(md)]) == 0
     text = md.read_text()
     assert "labels=refined queries=144" in text and "dots (easy)" in text
+    assert eval_textons.main(["--method", "model", "--model-labels", "guided", "--guided-weight",
+                              "1.5", "--families", "discs", "--limit", "1", "--quiet",
+                              "--markdown", str(md)]) == 0
+    assert "labels=guided weight=1.5 reach=0.01" in md.read_text()
     assert eval_textons.main(["--families", "nope"]) == 2
     assert eval_textons.main(["--method", "model", "--num-queries", "0"]) == 2
+    assert eval_textons.main(["--method", "model", "--guided-weight", "-1"]) == 2
     assert "error" in capsys.readouterr().err
 
 
