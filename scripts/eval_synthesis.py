@@ -111,6 +111,13 @@ def scores(image: np.ndarray, pics: dict) -> dict:
                 "rep": base.repetition(p)} for m, p in pics.items()}
 
 
+def mean_scores(runs: list[dict]) -> dict:
+    """The scores of several seeds' outputs (:func:`scores` each), averaged per method and
+    measure."""
+    return {m: {k: float(np.mean([r[m][k] for r in runs])) for k in runs[0][m]}
+            for m in runs[0]}
+
+
 def tileable_seam(tex, image: np.ndarray, size, seed: int) -> dict:
     source = torch.from_numpy(image).permute(2, 0, 1)
     pic, _ = synthesize_texture(tex.decoder, tex.textons, tex.short, size,
@@ -135,6 +142,7 @@ def summary(results: list[dict]) -> list[str]:
     for size in sorted({r["size"] for r in results}):
         rs = [r for r in results if r["size"] == size]
         n = len(rs)
+        pairs = [p for r in rs for p in r["per_seed"]]  # (ours, random) of every seed
         beat_dec = sum(r["sc"]["ours"]["swd"] < r["sc"]["decoded"]["swd"] for r in rs)
         beat_rand = sum(r["sc"]["ours"]["swd"] < r["sc"]["random"]["swd"] for r in rs)
         beat_q, beat_q_r = (sum(r["sc"][m]["swd"] < r["sc"]["quilting"]["swd"]
@@ -148,7 +156,9 @@ def summary(results: list[dict]) -> list[str]:
                      np.mean([r["sc"][m]["gram"] for r in rs])) for m in METHODS}
         lines += [f"{size[0]}x{size[1]} ({n} textures): mean swd/gram "
                   + ", ".join(f"{m} {s:.1f}/{g:.3f}" for m, (s, g) in means.items()),
-                  f"  ours < random placement on patch-SWD: {beat_rand}/{n} (target: all)",
+                  f"  ours < random placement on patch-SWD: {beat_rand}/{n} (target: all; "
+                  f"{len(pairs) // n} seed(s) each, their mean; single seeds: "
+                  f"{sum(o < r for o, r in pairs)}/{len(pairs)})",
                   f"  ours < decoded (the arrangement decoded, no paste) on patch-SWD: "
                   f"{beat_dec}/{n}",
                   f"  ours < quilting on patch-SWD or gram: {beat_q}/{n} (target >= 60%)",
@@ -219,7 +229,13 @@ def main() -> None:
     p.add_argument("--seam-only", action="store_true",
                    help="only ours tileable at the first size, scored by its seam")
     p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--seeds", type=int, default=1,
+                   help="outputs per texture and size, with seeds --seed, --seed + 1, ...: "
+                        "every method's scores are their mean (one seed's patch-SWD swings "
+                        "several-fold with where the elements fall)")
     args = p.parse_args()
+    if args.seeds < 1:
+        p.error("--seeds must be >= 1")
     torch.set_num_threads(1)
     from neuraltex.cli import common
     from neuraltex.imageio import load_image
@@ -241,14 +257,22 @@ def main() -> None:
             continue
         rep_in = base.repetition(image)
         for k, size in enumerate(sizes):
-            pics, seconds, kept = outputs(model, tex, image, size, args.seed)
-            r = {"name": name, "size": size, "sc": scores(image, pics), "seconds": seconds,
-                 "rep_in": rep_in}
+            runs = [outputs(model, tex, image, size, args.seed + j)
+                    for j in range(args.seeds)]
+            pics, kept = runs[0][0], runs[0][2]  # the gallery shows the first seed
+            each = [scores(image, run[0]) for run in runs]
+            seconds = float(np.mean([run[1] for run in runs]))
+            r = {"name": name, "size": size, "sc": mean_scores(each), "seconds": seconds,
+                 "rep_in": rep_in,
+                 "per_seed": [(e["ours"]["swd"], e["random"]["swd"]) for e in each]}
             if args.tileable and k == 0:
                 r["tile"] = tileable_seam(tex, image, size, args.seed)
             results.append(r)
             print(row_text(name, size, r["sc"], seconds, rep_in, kept)
                   + (seam_text(r["tile"]) if "tile" in r else ""), flush=True)
+            if args.seeds > 1:
+                print("  ours / random patch-SWD per seed: " + ", ".join(
+                    f"{o:.3f} / {q:.3f}" for o, q in r["per_seed"]), flush=True)
             if k == 0 and name in GALLERY:
                 rows.append((image, pics))
                 if args.gallery:

@@ -38,3 +38,20 @@ def test_seam_measures_on_a_seamless_field_and_on_a_cut_one():
             assert spread.min() <= wrap <= spread.max() and base.seam(pic) < 1.3
         else:
             assert base.seam(pic) > 3
+
+
+def test_scores_of_several_seeds_are_averaged_per_method_and_measure():
+    """eval_synthesis --seeds: every method's patch-SWD, Gram and repetition are the mean of
+    its seeds' (the summary counts wins on those means)."""
+    import eval_synthesis
+
+    runs = [{"ours": {"swd": 1.0, "gram": 0.2, "rep": 0.1},
+             "random": {"swd": 19.0, "gram": 0.4, "rep": 0.3}},
+            {"ours": {"swd": 3.0, "gram": 0.4, "rep": 0.3},
+             "random": {"swd": 1.0, "gram": 0.2, "rep": 0.1}}]
+    import pytest
+
+    mean = eval_synthesis.mean_scores(runs)
+    assert mean == {"ours": {"swd": 2.0, "gram": pytest.approx(0.3), "rep": pytest.approx(0.2)},
+                    "random": {"swd": 10.0, "gram": pytest.approx(0.3),
+                               "rep": pytest.approx(0.2)}}
