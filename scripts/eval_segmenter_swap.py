@@ -1,0 +1,92 @@
+"""What a new E_s does to the shipped autoencoder's reconstruction, before E_FC and G adapt.
+
+The default model's E_s is replaced by the one of another export (e.g. the long segmenter
+run), E_FC and G stay, and both models reconstruct (encode, decode; no ``fit``) the first
+``--procedural`` images of the procedural benchmark and the real textures (at 128 px, the
+model's training size). Prints the mean PSNR of each, and on how many images the swap wins.
+
+    python scripts/eval_segmenter_swap.py --segmenter runs/long_segmenter/model.safetensors
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+import numpy as np
+import torch
+from tqdm import tqdm
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+from neuraltex.errors import InputError, cli_entry  # noqa: E402
+
+
+def psnr(x: torch.Tensor, y: torch.Tensor) -> float:
+    return float(-10 * torch.log10(((x.clamp(0, 1) - y) ** 2).mean().clamp_min(1e-12)))
+
+
+def with_segmenter(weights: str, segmenter: str):
+    """The model of ``weights`` with E_s (every ``segmenter.*`` tensor) from ``segmenter``."""
+    from neuraltex.model import load_model
+
+    model, donor = load_model(weights), load_model(segmenter).state_dict()
+    state = model.state_dict()
+    if any(donor[k].shape != v.shape for k, v in state.items() if k.startswith("segmenter.")):
+        raise InputError(f"{segmenter}: its E_s does not fit the model of {weights}")
+    model.load_state_dict({k: donor[k] if k.startswith("segmenter.") else v
+                           for k, v in state.items()})
+    return model
+
+
+def reconstruct(model, x: torch.Tensor) -> torch.Tensor:
+    """(3, H, W) -> the model's reconstruction (3, H, W)."""
+    with torch.no_grad():
+        return model.decode(model.encode(x[None]).textons, tuple(x.shape[-2:]))[0]
+
+
+def pictures(procedural: int, textures: Path) -> dict[str, list[torch.Tensor]]:
+    from neuraltex.data.splits import benchmark_split
+    from neuraltex.imageio import load_image
+    from neuraltex.nn_utils import resize
+
+    proc = [torch.from_numpy(np.ascontiguousarray(it.load().image, dtype=np.float32))
+            .permute(2, 0, 1) for it in benchmark_split()[:procedural]]
+    real = [resize(load_image(p)[:3][None].float(), (128, 128))[0].clamp(0, 1)
+            for p in sorted(textures.glob("*.png"))]
+    return {"procedural": proc, "real (128 px)": real}
+
+
+@cli_entry("eval_segmenter_swap")
+def main(argv: list[str] | None = None) -> int:
+    from neuraltex.model import DEFAULT_MODEL
+
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--segmenter", required=True, help="export whose E_s replaces the default's")
+    p.add_argument("--weights", default=str(DEFAULT_MODEL),
+                   help="the model whose E_FC and G stay (default: the shipped one)")
+    p.add_argument("--procedural", type=int, default=60,
+                   help="how many procedural benchmark images")
+    p.add_argument("--textures", type=Path, default=ROOT / "data" / "real_textures",
+                   help="folder of real textures (PNG)")
+    args = p.parse_args(argv)
+    torch.set_num_threads(1)
+    from neuraltex.model import load_model
+
+    for path in (args.segmenter, args.weights):
+        if not Path(path).is_file():
+            raise InputError(f"no model at {path}")
+    old, new = load_model(args.weights), with_segmenter(args.weights, args.segmenter)
+    for name, xs in pictures(args.procedural, args.textures).items():
+        a, b = zip(*[(psnr(reconstruct(old, x), x), psnr(reconstruct(new, x), x))
+                     for x in tqdm(xs, desc=name, leave=False)], strict=True)
+        wins = sum(nb > na for na, nb in zip(a, b, strict=True))
+        print(f"{name}: {len(xs)} images, PSNR shipped {np.mean(a):.2f} dB, with the new E_s "
+              f"{np.mean(b):.2f} dB (better on {wins})")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
