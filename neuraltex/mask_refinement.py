@@ -8,7 +8,8 @@ Gaussian colour model of each label as the likelihood:
     label(p) = argmax_k  log S_k(p) + lambda * log N(I(p); c_k, sigma_k^2 I_3)
 
 over the labels k whose mask reaches p (S_k(p) >= ``reach``, or k is p's own argmax label);
-c_k and sigma_k^2 are the mean colour and the per-channel variance of the pixels that S's
+I is the image in CIELAB / 100 (perceptually even: on the validation split 0.654 against RGB's
+0.646), c_k and sigma_k^2 the mean colour and the per-channel variance of the pixels that S's
 argmax gives k. Where S is unsure (near its edges) the colour decides, so boundaries snap to the
 image's edges; where S is sure, or colours are alike, S stays; ``reach`` keeps a pixel from
 jumping to a far region of the same colour. lambda = 2 and reach = 0.01 were picked on the
@@ -39,7 +40,7 @@ def colour_guided_labels(masks: Tensor, image: Tensor, weight: float = WEIGHT,
     hard = prior.argmax(1)  # (P,)
     if weight == 0 or K == 1:
         return hard.reshape(H, W)
-    colour = image.reshape(3, -1).T.float()  # (P, 3)
+    colour = lab(image).reshape(3, -1).T  # (P, 3)
     count = torch.bincount(hard, minlength=K).float().clamp_min(1)  # (K,)
     mean = torch.zeros(K, 3).index_add_(0, hard, colour) / count[:, None]  # (K, 3) c_k
     spread = ((colour - mean[hard]) ** 2).sum(1)  # (P,)
@@ -53,3 +54,11 @@ def colour_guided_labels(masks: Tensor, image: Tensor, weight: float = WEIGHT,
         reached[torch.arange(len(score)), hard[s]] = True
         out[s] = score.masked_fill(~reached, float("-inf")).argmax(1)
     return out.reshape(H, W)
+
+
+def lab(image: Tensor) -> Tensor:
+    """CIELAB / 100 of an RGB image (3, H, W) in [0, 1]. -> (3, H, W) float32."""
+    from skimage.color import rgb2lab
+
+    rgb = image.detach().cpu().permute(1, 2, 0).double().clamp(0, 1).numpy()
+    return torch.from_numpy(rgb2lab(rgb) / 100).permute(2, 0, 1).float()
