@@ -3,9 +3,12 @@
 The default model's E_s is replaced by the one of another export (e.g. the long segmenter
 run), E_FC and G stay, and both models reconstruct (encode, decode; no ``fit``) the first
 ``--procedural`` images of the procedural benchmark and the real textures (at 128 px, the
-model's training size). Prints the mean PSNR of each, and on how many images the swap wins.
+model's training size). Prints the mean PSNR of each, and on how many images the new one
+wins. With ``--model`` instead, the new one is that whole export (E_FC and G adapted around
+the new E_s: the step after the swap).
 
     python scripts/eval_segmenter_swap.py --segmenter runs/long_segmenter/model.safetensors
+    python scripts/eval_segmenter_swap.py --model runs/long_finetune/model.safetensors
 """
 
 from __future__ import annotations
@@ -64,7 +67,9 @@ def main(argv: list[str] | None = None) -> int:
     from neuraltex.model import DEFAULT_MODEL
 
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("--segmenter", required=True, help="export whose E_s replaces the default's")
+    new = p.add_mutually_exclusive_group(required=True)
+    new.add_argument("--segmenter", help="export whose E_s replaces the default's")
+    new.add_argument("--model", help="a whole export to compare with the default instead")
     p.add_argument("--weights", default=str(DEFAULT_MODEL),
                    help="the model whose E_FC and G stay (default: the shipped one)")
     p.add_argument("--procedural", type=int, default=60,
@@ -75,15 +80,17 @@ def main(argv: list[str] | None = None) -> int:
     torch.set_num_threads(1)
     from neuraltex.model import load_model
 
-    for path in (args.segmenter, args.weights):
+    for path in (args.segmenter or args.model, args.weights):
         if not Path(path).is_file():
             raise InputError(f"no model at {path}")
-    old, new = load_model(args.weights), with_segmenter(args.weights, args.segmenter)
+    old = load_model(args.weights)
+    new = load_model(args.model) if args.model else with_segmenter(args.weights, args.segmenter)
+    label = "the new model" if args.model else "the new E_s"
     for name, xs in pictures(args.procedural, args.textures).items():
         a, b = zip(*[(psnr(reconstruct(old, x), x), psnr(reconstruct(new, x), x))
                      for x in tqdm(xs, desc=name, leave=False)], strict=True)
         wins = sum(nb > na for na, nb in zip(a, b, strict=True))
-        print(f"{name}: {len(xs)} images, PSNR shipped {np.mean(a):.2f} dB, with the new E_s "
+        print(f"{name}: {len(xs)} images, PSNR shipped {np.mean(a):.2f} dB, with {label} "
               f"{np.mean(b):.2f} dB (better on {wins})")
     return 0
 

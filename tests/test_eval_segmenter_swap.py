@@ -23,7 +23,7 @@ def test_swapping_in_the_same_segmenter_changes_nothing(tmp_path, capsys):
     out = capsys.readouterr().out.splitlines()
     for line, n in zip(out, (2, 1), strict=True):
         shipped, swapped = (float(v.split(" dB")[0]) for v in line.split("PSNR shipped ")[1]
-                            .split(", with the new E_s "))
+                            .split(", with the new E_s "))  # the same model: equal PSNR
         assert f"{n} images" in line and shipped == swapped and "better on 0" in line
 
 
@@ -46,6 +46,16 @@ def test_the_swap_takes_every_segmenter_tensor_and_nothing_else(tmp_path):
     for k, v in mixed.items():
         moved = k.startswith("segmenter.") and v.is_floating_point()
         assert torch.equal(v, base[k] + 1) if moved else torch.equal(v, base[k]), k
+
+
+def test_a_whole_model_compared_with_the_default(tmp_path, capsys):
+    from neuraltex.model import DEFAULT_MODEL
+
+    Image.fromarray(np.full((32, 32, 3), 90, np.uint8)).save(tmp_path / "flat.png")
+    assert eval_segmenter_swap.main(["--model", str(DEFAULT_MODEL), "--procedural", "1",
+                                     "--textures", str(tmp_path)]) == 0
+    out = capsys.readouterr().out
+    assert "with the new model" in out and "better on 0" in out
 
 
 def test_a_missing_model_is_one_line_and_exit_2(capsys):
