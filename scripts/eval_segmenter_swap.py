@@ -27,10 +27,6 @@ sys.path.insert(0, str(ROOT))
 from neuraltex.errors import InputError, cli_entry  # noqa: E402
 
 
-def psnr(x: torch.Tensor, y: torch.Tensor) -> float:
-    return float(-10 * torch.log10(((x.clamp(0, 1) - y) ** 2).mean().clamp_min(1e-12)))
-
-
 def with_segmenter(weights: str, segmenter: str):
     """The model of ``weights`` with E_s (every ``segmenter.*`` tensor) from ``segmenter``."""
     from neuraltex.model import load_model
@@ -64,6 +60,7 @@ def pictures(procedural: int, textures: Path) -> dict[str, list[torch.Tensor]]:
 
 @cli_entry("eval_segmenter_swap")
 def main(argv: list[str] | None = None) -> int:
+    from neuraltex.fit import psnr
     from neuraltex.model import DEFAULT_MODEL
 
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -87,7 +84,8 @@ def main(argv: list[str] | None = None) -> int:
     new = load_model(args.model) if args.model else with_segmenter(args.weights, args.segmenter)
     label = "the new model" if args.model else "the new E_s"
     for name, xs in pictures(args.procedural, args.textures).items():
-        a, b = zip(*[(psnr(reconstruct(old, x), x), psnr(reconstruct(new, x), x))
+        a, b = zip(*[(psnr(reconstruct(old, x).clamp(0, 1), x),
+                       psnr(reconstruct(new, x).clamp(0, 1), x))
                      for x in tqdm(xs, desc=name, leave=False)], strict=True)
         wins = sum(nb > na for na, nb in zip(a, b, strict=True))
         print(f"{name}: {len(xs)} images, PSNR shipped {np.mean(a):.2f} dB, with {label} "
