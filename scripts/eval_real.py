@@ -225,13 +225,16 @@ def main() -> None:
                     "(torch seeds 0..N-1; default 1)")
     ap.add_argument("--init-only", action="store_true",
                     help="only the --init-compare runs (no table)")
+    ap.add_argument("--weights", type=Path, default=DEFAULT_MODEL,
+                    help="model export to fit from, with its fit prior beside it (default: "
+                    "the shipped model)")
     ap.add_argument("--threads", type=int, default=1, help="torch threads (default 1)")
     ap.add_argument("--out", type=Path, help="also write the table (markdown) here")
     ap.add_argument("--pictures", type=Path, help="folder for input|fit|reshuffle PNGs")
     args = ap.parse_args()
     torch.set_num_threads(args.threads)
     start = time.perf_counter()
-    model = load_model(DEFAULT_MODEL)
+    model = load_model(args.weights)
     print(f"start-up (import + load model): {time.perf_counter() - start:.2f} s")
     settings = FitSettings(segmenter=args.segmenter, seconds=None if args.steps else args.seconds,
                            steps=args.steps, detail=args.detail)
@@ -240,7 +243,7 @@ def main() -> None:
     images += procedural_images(args.procedural)
     if args.init_only:
         print("\n".join(init_compare(images[:args.init_compare], settings, args.init_chain,
-                                     args.init_seeds)))
+                                     args.init_seeds, args.weights)))
         return
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
@@ -261,14 +264,15 @@ def main() -> None:
         real = [(n, r) for n, r in rows if not n.startswith("procedural_")]
         text = table(rows) + "\n\n" + "\n".join(f"- {s}" for s in summary(real or rows))
         init = init_compare(images[:args.init_compare], settings, args.init_chain,
-                            args.init_seeds)
+                            args.init_seeds, args.weights)
         text += "".join(f"\n- {s}" for s in init)
     print(text)
     if args.out:
         args.out.write_text(text + "\n")
 
 
-def init_compare(images, settings: FitSettings, chain: int = 0, seeds: int = 1) -> list[str]:
+def init_compare(images, settings: FitSettings, chain: int = 0, seeds: int = 1,
+                 weights: Path = DEFAULT_MODEL) -> list[str]:
     """Where the tuning starts, at the same budget, on ``images``: the shipped weights with
     their fit prior (what ``fit`` does; :mod:`neuraltex.fit_prior`), the shipped G without
     it, and random weights (``seeds`` initializations, torch seeds 0, 1, ...). Prints the
@@ -278,7 +282,7 @@ def init_compare(images, settings: FitSettings, chain: int = 0, seeds: int = 1) 
     With ``chain``, one more start: :func:`chained_model`."""
     if not images:
         return []
-    pre = load_model(DEFAULT_MODEL)
+    pre = load_model(weights)
     randoms = []
     for seed in range(seeds):
         torch.manual_seed(seed)

@@ -92,4 +92,15 @@ def test_eval_model_script_and_its_mask_colour_reference(tmp_path):
     assert eval_model.main(["--limit", "2", "--quiet", "--threads", "1", "--json", str(out)]) == 0
     mean = json.loads(out.read_text())["mean"]
     assert mean["psnr_mask_colours"] > mean["psnr_constant"]  # the masks carry the layout
-    assert all(np.isfinite(mean[k]) for k in ("psnr", "cc_R", "swd_recon", "swd_reshuffled"))
+    assert all(np.isfinite(mean[k]) for k in ("psnr", "cc_R", "swd_recon", "swd_reshuffled",
+                                              "swd_reshuffled_kinds"))
+    # the background layer (kind -1) keeps its features: nothing of one kind -1 moves
+    model = load_model(DEFAULT_MODEL)
+    with torch.no_grad():
+        image = torch.rand(1, 3, 64, 64, generator=torch.Generator().manual_seed(0))
+        textons = model.encode(image).textons
+        still = torch.full(textons.p.shape, -1, dtype=torch.int64)
+        assert torch.equal(eval_model._reshuffled(model, textons, 3, still),
+                           model.decode(textons, (eval_model.SIZE,) * 2))
+        assert not torch.equal(eval_model._reshuffled(model, textons, 3),
+                               model.decode(textons, (eval_model.SIZE,) * 2))
