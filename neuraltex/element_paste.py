@@ -38,19 +38,16 @@ REACH = 64  # px: gaps farther than this from any pasted pixel keep the decoded 
 # cut spots (leopard) and lowered both measures of docs/synthesis.md (leopard patch-SWD x1000
 # 0.46 -> 0.23, Gram 0.030 -> 0.016 at 0.35; burlwood 0.076 -> 0.046, 0.030 -> 0.027)
 FEATHER = 0.35
-CLASH = 0.3  # share of a core another placement may cover (1: no placement is left out)
 
 
 @dataclass
 class Cutout:
-    """One element's pixels of the reconstruction: colour (3, h, w), alpha (h, w), the
-    top-left (y, x) of that box in the reconstruction, and its core (h, w) bool: the pixels
-    of its own textons (the footprint less the ground around them)."""
+    """One element's pixels of the reconstruction: colour (3, h, w), alpha (h, w) and the
+    top-left (y, x) of that box in the reconstruction."""
 
     rgb: Tensor
     alpha: Tensor
     corner: tuple[int, int]
-    core: np.ndarray
 
 
 def element_map(labels: np.ndarray, rows: np.ndarray, groups: list[list[int]],
@@ -84,8 +81,7 @@ def cutouts(recon: Tensor, labels: np.ndarray, rows: np.ndarray, groups: list[li
         y0, x0 = max(box[0].start - pad, 0), max(box[1].start - pad, 0)
         y1, x1 = min(box[0].stop + pad, H), min(box[1].stop + pad, W)
         mask = torch.from_numpy(place[y0:y1, x0:x1] == g).to(recon.dtype)
-        out.append(Cutout(recon[:, y0:y1, x0:x1], blur(mask, feather).clamp(0, 1), (y0, x0),
-                          where[y0:y1, x0:x1] == g))
+        out.append(Cutout(recon[:, y0:y1, x0:x1], blur(mask, feather).clamp(0, 1), (y0, x0)))
     return out
 
 
@@ -101,18 +97,14 @@ class Pasted:
 
 
 def paste(ground: Tensor, pieces: list[Cutout | None], placed: list[tuple[int, int, int]],
-          tileable: bool = False, clash: float = CLASH) -> Pasted:
+          tileable: bool = False) -> Pasted:
     """``ground`` (3, H, W) with each placement (element, dy, dx) (whole pixels, bottom to
     top) drawn over it from its cutout; ``tileable``: the pastes wrap around, otherwise what
-    falls outside is cut. A placement whose core would cover more than ``clash`` of an
-    earlier one's core, or have more than ``clash`` of its own on earlier cores, is left out
-    (a coin pasted over a coin leaves a crescent of it; 1: none is left out)."""
+    falls outside is cut."""
     out = ground.clone()
     H, W = out.shape[-2:]
     cover = torch.zeros(H, W, dtype=out.dtype)
     source = np.full((H, W, 2), -1, np.int64)
-    owner = np.full((H, W), -1, np.int64)  # placement whose core holds the pixel
-    core_area: list[int] = []
     for g, dy, dx in placed:
         c = pieces[g]
         if c is None:
@@ -125,15 +117,6 @@ def paste(ground: Tensor, pieces: list[Cutout | None], placed: list[tuple[int, i
         iy, ix = (ys >= 0) & (ys < H), (xs >= 0) & (xs < W)
         if not (iy.any() and ix.any()):
             continue
-        core = c.core[iy][:, ix]
-        cy, cx = np.broadcast_arrays(ys[iy][:, None], xs[ix][None])
-        hit = owner[cy[core], cx[core]]
-        hit = np.bincount(hit[hit >= 0], minlength=len(core_area))
-        if clash < 1 and core.any() and (hit.sum() > clash * core.sum() or (
-                hit > clash * np.maximum(core_area, 1)).any()):
-            continue
-        owner[cy[core], cx[core]] = len(core_area)
-        core_area.append(int(core.sum()))
         ty, tx = torch.from_numpy(ys[iy])[:, None], torch.from_numpy(xs[ix])[None]
         a = c.alpha[iy][:, ix]  # (h', w')
         out[:, ty, tx] = a * c.rgb[:, iy][:, :, ix] + (1 - a) * out[:, ty, tx]
