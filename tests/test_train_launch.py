@@ -74,3 +74,21 @@ def test_training_logs_pictures_without_tensorboard(tmp_path, monkeypatch, capsy
     assert logger.writer is None and "tensorboard is not installed" in capsys.readouterr().err
     logger.scalars(1, {"recon": 0.5})  # a no-op, not an error
     logger.close()
+
+
+def test_a_run_that_resumes_needs_none_of_the_files_it_started_from(tmp_path):
+    from omegaconf import OmegaConf
+
+    from neuraltex.errors import InputError
+    from train.setup import check_inputs
+
+    T = OmegaConf.create({"init_from": "runs/default/model.safetensors",
+                          "init_parts": {"segmenter": "runs/long_segmenter/model.safetensors"},
+                          "resume": "auto"})
+    with pytest.raises(InputError, match="trainer.init_from: runs/default/model.safetensors"):
+        check_inputs(T, tmp_path)
+    (tmp_path / "last.pt").write_bytes(b"")  # resumed from here: the start files are history
+    check_inputs(T, tmp_path)
+    T.resume = None  # not resuming: they are needed again
+    with pytest.raises(InputError):
+        check_inputs(T, tmp_path)

@@ -41,7 +41,7 @@ class Interrupted(KeyboardInterrupt):
 def run(cfg: DictConfig) -> dict[str, float]:
     """Train as configured; returns the last step's logged numbers. Ctrl-C saves a
     checkpoint of the last finished step and raises :class:`Interrupted`."""
-    check_inputs(cfg.trainer)
+    check_inputs(cfg.trainer, Path(cfg.run_dir))
     rank, world = _distributed()
     device = _device(cfg, rank)
     if cfg.trainer.threads:

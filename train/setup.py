@@ -81,12 +81,15 @@ def _ddp(module: torch.nn.Module) -> DDP:
     return DDP(module, find_unused_parameters=True)
 
 
-def check_inputs(T: DictConfig) -> None:
+def check_inputs(T: DictConfig, run_dir: Path) -> None:
     """InputError naming the missing file, and the stage that makes it, when a file the run
     starts from (``trainer.init_from``, ``trainer.init_parts``, ``trainer.resume``) is absent,
-    before anything is built."""
+    before anything is built. A run that resumes from its own ``run_dir/last.pt``
+    (``trainer.resume=auto``) needs none of the files it started from."""
     paths = [("trainer.init_from", T.init_from), *((f"trainer.init_parts.{k}", v)
                                                     for k, v in (T.init_parts or {}).items())]
+    if T.resume == "auto" and (run_dir / "last.pt").is_file():
+        paths = []
     if T.resume and T.resume != "auto":
         paths.append(("trainer.resume", T.resume))
     for key, path in paths:
