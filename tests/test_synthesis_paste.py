@@ -89,3 +89,33 @@ def test_placements_in_pixels_sorted_by_draw_rank():
     assert rank.tolist() == [0, 3]
     placed = pixel_placements([(0, 0.5, 0.25), (1, 0.1, 0.0), (0, 0.0, 0.0)], rank, 8)
     assert placed == [(0, 2, 4), (0, 0, 0), (1, 0, 1)]
+
+
+def test_elements_on_a_ground_carry_their_share_of_it():
+    from neuraltex.element_paste import ground_margin
+    from neuraltex.element_swap import MARGIN
+
+    recon, labels, rows = _scene()
+    where = element_map(labels, rows, [[0], [1]], K=3)
+    m = ground_margin(where, 2)
+    assert MARGIN < m < 10  # the ground between and around the two squares is wide
+    pieces = cutouts(recon, labels, rows, [[0], [1]], K=3, feather=0.5)  # margin from the ground
+    near, far = 7 + int(m), 7 + int(m) + 2  # columns right of element 0 (x 4..7), row 5
+    c = pieces[0]
+    row = c.alpha[5 - c.corner[0]]
+    assert c.corner[1] == 0 and float(row[near]) > 0.5  # within m px: carried
+    assert far >= len(row) or float(row[far]) < 0.5  # beyond: not
+    fixed = cutouts(recon, labels, rows, [[0], [1]], K=3, margin=MARGIN, feather=0.5)[0]
+    assert fixed.alpha.shape[1] <= near  # the fixed 2 px margin stops short of it
+    # no ground (every pixel an element's): the fixed margin, as before
+    assert ground_margin(np.zeros((6, 6), np.int64), 2) == MARGIN
+
+
+def test_a_texture_without_ground_pastes_as_with_the_fixed_margin():
+    from neuraltex.element_swap import MARGIN
+
+    recon, labels, rows = _scene()
+    labels = np.where(labels == 0, 1, labels)  # the ground becomes part of element 0
+    a = cutouts(recon, labels, rows, [[0], [1]], K=3)
+    b = cutouts(recon, labels, rows, [[0], [1]], K=3, margin=MARGIN)
+    assert all(torch.equal(x.alpha, y.alpha) and x.corner == y.corner for x, y in zip(a, b))
