@@ -118,4 +118,5 @@ def test_a_texture_without_ground_pastes_as_with_the_fixed_margin():
     labels = np.where(labels == 0, 1, labels)  # the ground becomes part of element 0
     a = cutouts(recon, labels, rows, [[0], [1]], K=3)
     b = cutouts(recon, labels, rows, [[0], [1]], K=3, margin=MARGIN)
-    assert all(torch.equal(x.alpha, y.alpha) and x.corner == y.corner for x, y in zip(a, b))
+    assert all(torch.equal(x.alpha, y.alpha) and x.corner == y.corner for x, y in
+               zip(a, b, strict=True))
