@@ -81,6 +81,13 @@ def _ddp(module: torch.nn.Module) -> DDP:
     return DDP(module, find_unused_parameters=True)
 
 
+def resume_file(T: DictConfig, run_dir: Path) -> Path | None:
+    """The checkpoint the run resumes from: ``trainer.resume``, or with "auto"
+    ``run_dir/last.pt``; None when there is none to resume from."""
+    path = run_dir / "last.pt" if T.resume == "auto" else T.resume
+    return Path(path) if path and Path(path).exists() else None
+
+
 def check_inputs(T: DictConfig, run_dir: Path) -> None:
     """InputError naming the missing file, and the stage that makes it, when a file the run
     starts from (``trainer.init_from``, ``trainer.init_parts``, ``trainer.resume``) is absent,
@@ -88,7 +95,7 @@ def check_inputs(T: DictConfig, run_dir: Path) -> None:
     (``trainer.resume=auto``) needs none of the files it started from."""
     paths = [("trainer.init_from", T.init_from), *((f"trainer.init_parts.{k}", v)
                                                     for k, v in (T.init_parts or {}).items())]
-    if T.resume == "auto" and (run_dir / "last.pt").is_file():
+    if T.resume == "auto" and resume_file(T, run_dir):
         paths = []
     if T.resume and T.resume != "auto":
         paths.append(("trainer.resume", T.resume))
@@ -103,8 +110,8 @@ def check_inputs(T: DictConfig, run_dir: Path) -> None:
 def restore(parts: Parts, T: DictConfig, run_dir: Path) -> Progress:
     """Resume from ``trainer.resume`` (a last.pt, or "auto": run_dir/last.pt when it exists),
     else start from ``trainer.init_from`` / ``trainer.init_parts``, else from scratch."""
-    resume = run_dir / "last.pt" if T.resume == "auto" else T.resume
-    if resume and Path(resume).exists():
+    resume = resume_file(T, run_dir)
+    if resume:
         ck = load_training_checkpoint(resume)
         parts.model.load_state_dict(ck["modules"]["model"])
         parts.critics.load_state_dict(ck["modules"]["critics"])
