@@ -176,12 +176,14 @@ def fill_gaps(pasted: Pasted, recon: Tensor, ground: Tensor, tileable: bool = Fa
     shift = np.where(ok[..., None], src - np.stack([ys, xs], -1), -(1 << 20))  # (H, W, 2)
     seam = np.zeros((H, W), bool)
     for axis in (0, 1):
-        step = (shift != np.roll(shift, -1, axis)).any(-1)  # pixel vs its next (wrapping)
+        nxt = np.roll(shift, -1, axis)  # each pixel's next (wrapping)
+        last = (slice(None), -1) if axis else (-1, slice(None))  # the last column (row)
+        if tileable:  # its next lies one period on: the same copy's shift is one period less
+            both = ok[last] & np.roll(ok, -1, axis)[last]
+            nxt[last + (axis,)] -= np.where(both, (H, W)[axis], 0)
+        step = (shift != nxt).any(-1)  # a join between copies of different offsets
         if not tileable:  # the last row (column) has no next one
-            if axis == 0:
-                step[-1] = False
-            else:
-                step[:, -1] = False
+            step[last] = False
         seam |= step | np.roll(step, 1, axis)
     seam = torch.from_numpy(binary_dilation(seam) if not tileable else _dilate_wrap(seam))
     soft = blur(fill, feather * 2, "circular" if tileable else "replicate")

@@ -120,3 +120,25 @@ def test_a_texture_without_ground_pastes_as_with_the_fixed_margin():
     b = cutouts(recon, labels, rows, [[0], [1]], K=3, margin=MARGIN)
     assert all(torch.equal(x.alpha, y.alpha) and x.corner == y.corner for x, y in
                zip(a, b, strict=True))
+
+
+
+def test_the_wrap_is_no_join_of_the_fill():
+    """On a torus no line is special: moving a tileable paste moves its filled picture with
+    it. (The wrap row and column were taken for a join between copies and blurred: the fill
+    of every tileable output was soft along its whole wrap.)"""
+    H, W = 24, 40
+    recon = torch.rand(3, H, W, generator=torch.Generator().manual_seed(1))
+    labels = np.zeros((H, W), np.int64)
+    labels[8:13, 8:14] = 1
+    pieces = cutouts(recon, labels, np.array([1]), [[0]], K=2, margin=0, feather=0.5)
+    ground = torch.zeros(3, H, W)
+
+    def filled(dy: int, dx: int) -> torch.Tensor:
+        pasted = paste(ground, pieces, [(0, dy, dx)], tileable=True)
+        return fill_gaps(pasted, recon, ground, tileable=True, reach=6, feather=0.5)
+
+    base = filled(0, 0)  # the square well inside: its fill does not reach the wrap
+    for dy, dx in ((-9, 0), (0, -10), (-9, -10), (6, 21)):  # across a wrap or two
+        moved = torch.roll(base, (dy, dx), (-2, -1))
+        assert torch.allclose(filled(dy, dx), moved, atol=1e-5), (dy, dx)
