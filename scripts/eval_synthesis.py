@@ -31,8 +31,10 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "scripts"))
 
+import eval_cvt_seam as cvt_seam  # noqa: E402
 import synthesis_baselines as base  # noqa: E402
 
+from cvt.seam import MARGIN_RATIO, misaligned, pooled_ratios, rolled_draws  # noqa: E402
 from neuraltex.texton_synthesis import (  # noqa: E402
     ArrangeSettings,
     decode_arranged,
@@ -49,6 +51,7 @@ from neuraltex.texton_synthesis import (  # noqa: E402
 # ours before the paste (the decode alone); recon: the reconstruction at its own size
 METHODS = ("ours", "ours_R", "decoded", "tiling", "random", "quilting", "recon")
 SEAM_LINES = 16  # the wrap band is also ranked among the bands at k / 16 inside
+SEAM_SHIFT = 4  # px out of register of the real-seam reference (eval_cvt_seam.py --shift)
 GALLERY = ("brick", "leopard", "java_beans", "gravel", "leaves", "cells_ihc")
 
 
@@ -118,16 +121,40 @@ def mean_scores(runs: list[dict]) -> dict:
             for m in runs[0]}
 
 
-def tileable_seam(tex, image: np.ndarray, size, seed: int) -> dict:
+def tileable_seam(tex, image: np.ndarray, size, seeds: list[int]) -> dict:
+    """Ours tileable at ``size``, scored by its seam: each measure is the mean over the
+    outputs of ``seeds`` (one output's band score swings several-fold with what its bands
+    happen to cross); ``lines``: per tile cvt's per-line seam values (both measures of
+    scripts/eval_cvt_seam.py), of the tile and of the tile cut out of register by
+    SEAM_SHIFT px (a real seam, for scale)."""
     source = torch.from_numpy(image).permute(2, 0, 1)
-    pic, _ = synthesize_texture(tex.decoder, tex.textons, tex.short, size,
-                                ArrangeSettings(seed=seed, tileable=True), labels=tex.labels,
-                                source=source)
-    pic = _hwc(pic)
-    wrap, inside, spread = base.seam_swd(pic, image, lines=SEAM_LINES)
-    return {"seam": base.seam(pic), "seam_swd": wrap, "inner_swd": inside,
-            "inner_lines": spread, "rank": int((spread < wrap).sum()),
-            "tiling_seam": base.seam(base.tiling(image, size))}
+    runs, lines, cut = [], [], []
+    for seed in seeds:
+        pic, _ = synthesize_texture(tex.decoder, tex.textons, tex.short, size,
+                                    ArrangeSettings(seed=seed, tileable=True),
+                                    labels=tex.labels, source=source)
+        pic = _hwc(pic)
+        runs.append((base.seam(pic), *base.seam_swd(pic, image, lines=SEAM_LINES)))
+        lines.append(cvt_seam.lines_of(pic, cvt_seam.MEASURES))
+        cut.append(cvt_seam.lines_of(misaligned(pic, SEAM_SHIFT), cvt_seam.MEASURES))
+    step, wrap, inside = (float(np.mean([r[i] for r in runs])) for i in range(3))
+    spread = np.mean([r[3] for r in runs], axis=0)
+    return {"seam": step, "seam_swd": wrap, "inner_swd": inside, "inner_lines": spread,
+            "rank": int((spread < wrap).sum()), "seeds": len(runs),
+            "tiling_seam": base.seam(base.tiling(image, size)), "lines": lines, "cut": cut}
+
+
+def line_ratios(tile: dict, rolls: int = 2000, measures=tuple(cvt_seam.MEASURES)
+                ) -> dict[str, tuple[float, np.ndarray, float]]:
+    """Per cvt seam measure: (the tiles' seam / interior, the same tiles rolled to random
+    lines (seamless by construction: the measure's noise), the tiles cut out of register)."""
+    out = {}
+    for m in measures:
+        values = [t[m] for t in tile["lines"]]
+        null = pooled_ratios(cvt_seam.MEASURES[m], values, rolled_draws(values, rolls))
+        out[m] = (float(cvt_seam._seams(tile["lines"], m)[0]), null,
+                  float(cvt_seam._seams(tile["cut"], m)[0]))
+    return out
 
 
 def row_text(name: str, size, sc: dict, seconds: float, rep_in: float, kept: str) -> str:
@@ -179,17 +206,41 @@ def seam_summary(seams: list[dict]) -> list[str]:
     ok = sum(s["seam_swd"] <= 1.1 * s["inner_swd"] for s in seams)
     typical = sum(s["seam_swd"] <= np.quantile(s["inner_lines"], 0.9) for s in seams)
     steps = sum(s["seam"] <= 1.1 for s in seams)
-    return [f"tileable ({n}): seam step ratio mean {np.mean([s['seam'] for s in seams]):.2f} "
+    k = seams[0]["seeds"]
+    per = f"each measure the mean of {k} outputs'; " if k > 1 else ""
+    return [f"tileable ({n}; {per}a seam if the wrap is worse than inside): seam step ratio "
+            f"mean {np.mean([s['seam'] for s in seams]):.2f} "
             f"(tiling of the input: {np.mean([s['tiling_seam'] for s in seams]):.2f}), "
             f"<= 1.1 on {steps}/{n}; band patch-SWD across the wrap <= 1.1 x inside (the lines "
             f"at 1/4, 1/2, 3/4) on {ok}/{n}; within the 90th percentile of the "
-            f"{SEAM_LINES - 1} interior lines' bands on {typical}/{n}"]
+            f"{SEAM_LINES - 1} interior lines' bands on {typical}/{n}"] + [
+        _pooled_lines(seams, m) for m in cvt_seam.MEASURES]
+
+
+def _pooled_lines(seams: list[dict], m: str) -> str:
+    """cvt's seam / interior for measure ``m`` over every tile of every texture, per texture
+    within MARGIN_RATIO, and the seamless (rolled) and real (cut) references."""
+    per = [line_ratios(s, measures=(m,))[m] for s in seams]
+    w = np.array([s["seeds"] for s in seams], float)
+    null = np.average(np.stack([p[1] for p in per]), axis=0, weights=w)
+    pooled = float(np.average([p[0] for p in per], weights=w))
+    return (f"  {m} (cvt.seam, seam line / interior): pooled {pooled:.3f}; within "
+            f"{MARGIN_RATIO} on {sum(p[0] <= MARGIN_RATIO for p in per)}/{len(per)} textures "
+            f"(rolled, seamless, within it on {sum(np.mean(p[1] <= MARGIN_RATIO) for p in per):.1f}"
+            f" on average); pooled rolled 5-95 % {np.quantile(null, 0.05):.3f}-"
+            f"{np.quantile(null, 0.95):.3f}; cut {SEAM_SHIFT} px out of register "
+            f"{np.average([p[2] for p in per], weights=w):.2f}, over {MARGIN_RATIO} on "
+            f"{sum(p[2] > MARGIN_RATIO for p in per)}/{len(per)}")
 
 
 def seam_text(tile: dict) -> str:
+    cvt = "; ".join(f"{m} {r:.2f} (rolled 5-95 % {np.quantile(null, 0.05):.2f}-"
+                    f"{np.quantile(null, 0.95):.2f}, cut {cut:.2f})"
+                    for m, (r, null, cut) in line_ratios(tile).items())
     return (f"  seam {tile['seam']:.2f} swd wrap/in {tile['seam_swd']:.1f}/"
             f"{tile['inner_swd']:.1f} interior lines {tile['inner_lines'].min():.1f}-"
-            f"{tile['inner_lines'].max():.1f} wrap above {tile['rank']}/{SEAM_LINES - 1}")
+            f"{tile['inner_lines'].max():.1f} wrap above {tile['rank']}/{SEAM_LINES - 1}"
+            f"\n    lines (cvt.seam): {cvt}")
 
 
 def gallery(rows: list[tuple[np.ndarray, dict]], path: Path) -> None:
@@ -246,19 +297,19 @@ def main() -> None:
     names = args.only or sorted((f.stem for f in args.textures.glob("*.png")),
                                 key=lambda n: (n not in GALLERY, n))  # the gallery's first
     results, rows, seams = [], [], []
+    seeds = list(range(args.seed, args.seed + args.seeds))
     for name in names:
         path = args.textures / f"{name}.png"
         tex = common.textons_of(model, texture_file(path, args.cache, args.steps), Limits())
         image = load_image(path).permute(1, 2, 0).numpy()
         if args.seam_only:
-            seams.append(tileable_seam(tex, image, sizes[0], args.seed))
+            seams.append(tileable_seam(tex, image, sizes[0], seeds))
             print(f"{name:12s} {sizes[0][0]}x{sizes[0][1]:<4d}" + seam_text(seams[-1]),
                   flush=True)
             continue
         rep_in = base.repetition(image)
         for k, size in enumerate(sizes):
-            runs = [outputs(model, tex, image, size, args.seed + j)
-                    for j in range(args.seeds)]
+            runs = [outputs(model, tex, image, size, seed) for seed in seeds]
             pics, kept = runs[0][0], runs[0][2]  # the gallery shows the first seed
             each = [scores(image, run[0]) for run in runs]
             seconds = float(np.mean([run[1] for run in runs]))
@@ -266,7 +317,7 @@ def main() -> None:
                  "rep_in": rep_in,
                  "per_seed": [(e["ours"]["swd"], e["random"]["swd"]) for e in each]}
             if args.tileable and k == 0:
-                r["tile"] = tileable_seam(tex, image, size, args.seed)
+                r["tile"] = tileable_seam(tex, image, size, seeds)
             results.append(r)
             print(row_text(name, size, r["sc"], seconds, rep_in, kept)
                   + (seam_text(r["tile"]) if "tile" in r else ""), flush=True)

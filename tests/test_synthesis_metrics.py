@@ -55,3 +55,28 @@ def test_scores_of_several_seeds_are_averaged_per_method_and_measure():
     assert mean == {"ours": {"swd": 2.0, "gram": pytest.approx(0.3), "rep": pytest.approx(0.2)},
                     "random": {"swd": 10.0, "gram": pytest.approx(0.3),
                                "rep": pytest.approx(0.2)}}
+
+
+def test_cvt_line_measures_pass_seamless_tiles_and_flag_cut_ones():
+    """eval_synthesis --seam-only scores tiles with cvt's line statistics as well: seam line
+    against its neighbours, pooled over several tiles (seeds). Whole periods of a random
+    field read as seamless, tiles cut from a longer period as seams, and the summary counts
+    them."""
+    import eval_cvt_seam
+    import eval_synthesis
+
+    def tile(seamless: bool) -> dict:
+        pics = [_field(seamless, seed=s) for s in range(3)]
+        return {"seeds": 3, "lines": [eval_cvt_seam.lines_of(p, ("colour step",))
+                                      for p in pics],
+                "cut": [eval_cvt_seam.lines_of(eval_synthesis.misaligned(p, 4),
+                                               ("colour step",)) for p in pics]}
+
+    whole, cut = tile(True), tile(False)
+    step = "colour step"
+    ok, null, shifted = eval_synthesis.line_ratios(whole, rolls=200, measures=(step,))[step]
+    bad = eval_synthesis.line_ratios(cut, rolls=200, measures=(step,))[step][0]
+    assert ok <= 1.1 < bad and shifted > 1.1  # the tiles cut out of register: a seam
+    assert null.shape == (200,) and 0.8 < np.median(null) < 1.2  # rolled: no seam
+    text = eval_synthesis._pooled_lines([whole, cut], step)
+    assert "within 1.1 on 1/2 textures" in text
