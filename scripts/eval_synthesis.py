@@ -128,12 +128,13 @@ def tileable_seam(tex, image: np.ndarray, size, seeds: list[int]) -> dict:
     scripts/eval_cvt_seam.py), of the tile and of the tile cut out of register by
     SEAM_SHIFT px (a real seam, for scale)."""
     source = torch.from_numpy(image).permute(2, 0, 1)
-    runs, lines, cut = [], [], []
+    runs, lines, cut, tiles = [], [], [], []
     for seed in seeds:
         pic, _ = synthesize_texture(tex.decoder, tex.textons, tex.short, size,
                                     ArrangeSettings(seed=seed, tileable=True),
                                     labels=tex.labels, source=source)
         pic = _hwc(pic)
+        tiles.append(pic)
         runs.append((base.seam(pic), *base.seam_swd(pic, image, lines=SEAM_LINES)))
         lines.append(cvt_seam.lines_of(pic, cvt_seam.MEASURES))
         cut.append(cvt_seam.lines_of(misaligned(pic, SEAM_SHIFT), cvt_seam.MEASURES))
@@ -141,7 +142,8 @@ def tileable_seam(tex, image: np.ndarray, size, seeds: list[int]) -> dict:
     spread = np.mean([r[3] for r in runs], axis=0)
     return {"seam": step, "seam_swd": wrap, "inner_swd": inside, "inner_lines": spread,
             "rank": int((spread < wrap).sum()), "seeds": len(runs),
-            "tiling_seam": base.seam(base.tiling(image, size)), "lines": lines, "cut": cut}
+            "tiling_seam": base.seam(base.tiling(image, size)), "lines": lines, "cut": cut,
+            "tile": tiles[0]}
 
 
 def line_ratios(tile: dict, rolls: int = 2000, measures=tuple(cvt_seam.MEASURES)
@@ -262,6 +264,21 @@ def gallery(rows: list[tuple[np.ndarray, dict]], path: Path) -> None:
     print(f"wrote {path}")
 
 
+def seam_gallery(tiles: list[np.ndarray], path: Path, side: int = 384) -> None:
+    """Each tileable tile (its first seed's) tiled 2 x 2 at ``side`` px, the wrap through
+    the middle of each cell, three a row (JPEG)."""
+    from PIL import Image
+
+    cells = [np.asarray(Image.fromarray((np.clip(np.tile(t, (2, 2, 1)), 0, 1) * 255).round()
+                                        .astype(np.uint8)).resize((side, side), Image.LANCZOS))
+             for t in tiles]
+    cells += [np.full_like(cells[0], 255)] * (-len(cells) % 3)
+    rows = [np.concatenate(cells[k:k + 3], 1) for k in range(0, len(cells), 3)]
+    path.parent.mkdir(parents=True, exist_ok=True)
+    Image.fromarray(np.concatenate(rows, 0)).save(path, quality=88)
+    print(f"wrote {path}")
+
+
 def add_texture_options(p: argparse.ArgumentParser) -> None:
     """--textures, --cache and --steps: where the real textures and their texture files are."""
     p.add_argument("--textures", type=Path, default=ROOT / "data" / "real_textures")
@@ -279,6 +296,9 @@ def main() -> None:
     p.add_argument("--gallery", type=Path, help="write the gallery (JPEG) here")
     p.add_argument("--seam-only", action="store_true",
                    help="only ours tileable at the first size, scored by its seam")
+    p.add_argument("--seam-gallery", type=Path,
+                   help="with --seam-only: write the first six textures' tiles, each tiled "
+                        "2 x 2, here (JPEG)")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--seeds", type=int, default=1,
                    help="outputs per texture and size, with seeds --seed, --seed + 1, ...: "
@@ -330,6 +350,8 @@ def main() -> None:
                     gallery(rows, args.gallery)
     if args.seam_only:
         print("\n".join(seam_summary(seams)))
+        if args.seam_gallery:
+            seam_gallery([t["tile"] for t in seams[:6]], args.seam_gallery)
         return
     print(f"\ncolumns: swd gram for {', '.join(METHODS)}")
     print("\n".join(summary(results)))
