@@ -78,3 +78,19 @@ def test_batched_loss_equals_the_per_image_reference_with_gradients():
     (g_ref,) = torch.autograd.grad(ref, logits)
     assert torch.allclose(fast, ref, atol=1e-10)
     assert torch.allclose(g_fast, g_ref, atol=1e-10)
+
+
+def test_bfloat16_masks_are_scored_in_float32():
+    """Under bfloat16 autocast (trainer.amp) E_s hands over bfloat16 masks: the loss takes
+    them (the Hungarian costs go through numpy) and is computed in float32, the same as for
+    float32 masks up to the masks' rounding, with gradients back to the bfloat16 logits."""
+    lab = _labels()
+    logits = (torch.nn.functional.one_hot(lab, 6).permute(0, 3, 1, 2).float() * 4
+              + torch.randn(1, 6, 12, 12, generator=torch.Generator().manual_seed(0)))
+    half = logits.bfloat16().requires_grad_()
+    loss = mask_supervision_loss(half.softmax(1), lab)
+    ref = mask_supervision_loss(half.detach().float().softmax(1), lab)
+    assert loss.dtype == torch.float32 and abs(float(loss.detach()) - float(ref)) < 0.02
+    loss.backward()
+    assert half.grad.dtype == torch.bfloat16 and torch.isfinite(half.grad.float()).all()
+

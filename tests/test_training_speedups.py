@@ -178,3 +178,13 @@ def test_profile_script_table_and_restores_what_it_labels(tmp_path):
               and "%" in line for c in line.split("|")[2:-1] if c.strip()]
     assert abs(sum(shares) - 100) < 1.0  # exclusive shares add up
     assert torch.Tensor.backward is backward and train.objective.mask_supervision_loss is loss
+
+
+def test_amp_auto_is_bfloat16_only_where_the_device_runs_it():
+    from train.setup import use_amp
+
+    cpu = torch.device("cpu")
+    assert use_amp(True, cpu) is True and use_amp(False, cpu) is False
+    native = bool(torch.ops.mkldnn._is_mkldnn_bf16_supported())
+    assert use_amp("auto", cpu) is native
+    assert use_amp("auto", torch.device("cuda")) is True

@@ -69,6 +69,8 @@ def mask_supervision_loss(masks: Tensor, labels: Tensor, points: int | None = No
 
     The costs of all images come from one batched product; only the assignment runs per
     image (scipy)."""
+    if masks.dtype in (torch.bfloat16, torch.float16):  # autocast (trainer.amp): the loss in
+        masks = masks.float()                            # float32 (float64 stays float64)
     B, n, H, W = masks.shape
     if labels.shape[-2:] != (H, W):
         labels = F.interpolate(labels[:, None].float(), size=(H, W), mode="nearest")[:, 0]

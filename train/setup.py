@@ -68,7 +68,18 @@ def build(cfg: DictConfig, device: torch.device, world: int = 1) -> Parts:
     opt_d = torch.optim.Adam(critics.parameters(), lr=T.d_lr, betas=tuple(T.betas))
     wrap = _ddp if world > 1 else (lambda m: m)
     return Parts(model, critics, gen, wrap(gen), wrap(critics), opt_g, opt_d, loss, device,
-                 amp=bool(T.amp))
+                 amp=use_amp(T.amp, device))
+
+
+def use_amp(setting, device: torch.device) -> bool:
+    """``trainer.amp``: true / false, or "auto": bfloat16 autocast on CUDA and on a CPU with
+    native bfloat16 instructions (AVX512-BF16 / AMX, where oneDNN runs it fast; elsewhere it
+    is emulated and slower than float32)."""
+    if setting != "auto":
+        return bool(setting)
+    if device.type == "cuda":
+        return True
+    return device.type == "cpu" and bool(torch.ops.mkldnn._is_mkldnn_bf16_supported())
 
 
 def _ddp(module: torch.nn.Module) -> DDP:
