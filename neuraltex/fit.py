@@ -65,6 +65,7 @@ class FitSettings:
     lr_features: float = 2e-2     # f_a
     lr_offsets: float = 2e-2      # d, the colour offsets (neuraltex.tuned_decoder)
     max_textons: int = MAX_SEGMENTS
+    queries: int | None = None    # segmenter "model": E_s's queries resampled to this many
     dihedral: bool = False        # random flips / transposes of image and textons
     ground: bool = False          # merge the ground between elements into one background
     #                               layer (looks cleaner on spots, costs PSNR on grout)
@@ -97,13 +98,15 @@ def psnr(x: Tensor, y: Tensor) -> float:
 
 
 def choose_segments(model, image: Tensor, method: str, max_textons: int,
-                    ground: bool = False) -> tuple[str, Textons, np.ndarray]:
+                    ground: bool = False, queries: int | None = None
+                    ) -> tuple[str, Textons, np.ndarray]:
     """(method, textons, labels) for an image (3, H, W). ``auto`` tries Felzenszwalb and SLIC
     (at Felzenszwalb's segment count) and keeps the one whose textons, splatted with their
     segments' mean colours (eqs. 4.3-4.7, 4.11-4.14), come closest to the image (PSNR): the
     segments that the Gaussians can represent best."""
     if method != "auto":
-        labels = segment_labels(image, method, model=model, max_segments=max_textons)
+        labels = segment_labels(image, method, model=model, max_segments=max_textons,
+                                queries=queries)
         return (method, *initial_textons(model, image, labels, ground))
     best = None
     count = None
@@ -221,7 +224,7 @@ def fit_texture(model, image: Tensor, settings: FitSettings | None = None,
         raise ValueError("fit needs a step or a time budget")
     begin = time.perf_counter()
     method, textons, labels = choose_segments(model, image, cfg.segmenter, cfg.max_textons,
-                                              cfg.ground)
+                                              cfg.ground, cfg.queries)
     rng = torch.Generator().manual_seed(cfg.seed)
     G = ColourOffsetGenerator(start_generator(model, cfg.prior)).eval()  # eval: keep BN stats
     current, opt = tuning(G, textons, first_offsets(model, image, textons, labels), cfg)

@@ -18,6 +18,7 @@ import torch
 import torch.nn.functional as F
 
 QUERY_KEYS = ("query_feat", "query_pos")
+MAX_QUERIES = 1024  # resampled queries at most (E_s's memory grows with them)
 
 
 def grid_shape(n: int) -> tuple[int, int]:
@@ -51,3 +52,17 @@ def adapt_queries(state: dict[str, torch.Tensor], n: int,
     for key in QUERY_KEYS:
         out[prefix + key] = resample_queries(state[prefix + key], n)
     return out
+
+
+def with_queries(model, n: int):
+    """A copy of the autoencoder ``model`` whose E_s has n queries (resampled, no training);
+    ``model`` itself when it has n already. Raises KeyError when its E_s has no queries."""
+    from dataclasses import replace
+
+    from neuraltex.model import build_model
+
+    if n == model.config.networks().segmentation.num_queries:
+        return model
+    copy = build_model(replace(model.config, num_queries=n), info=model.info)
+    copy.load_state_dict(adapt_queries(model.state_dict(), n))
+    return copy.to(next(model.parameters()).device).eval()

@@ -30,15 +30,21 @@ BACKGROUND = 0.25      # ... unless it covers this share: a backdrop stays one s
 
 
 def segment_labels(image: torch.Tensor, method: str, *, model=None,
-                   max_segments: int = MAX_SEGMENTS, count: int | None = None) -> np.ndarray:
+                   max_segments: int = MAX_SEGMENTS, count: int | None = None,
+                   queries: int | None = None) -> np.ndarray:
     """Segment labels of an image (3, H, W) in [0, 1] -> (H, W) int64 in 0..K-1. ``count``:
-    the number of segments SLIC aims at (default: half of ``max_segments``)."""
+    the number of segments SLIC aims at (default: half of ``max_segments``); ``queries``:
+    ``model``'s E_s with its queries resampled to this many (more, smaller textons)."""
     if method not in METHODS:
         raise ValueError(f"segmenter must be one of {METHODS}, got {method!r}")
     arr = image.permute(1, 2, 0).cpu().numpy().astype(np.float64)  # (H, W, 3)
     if method == "model":
         if model is None:
             raise ValueError("segmenter 'model' needs the model")
+        if queries:
+            from neuraltex.query_grid import with_queries
+
+            model = with_queries(model, queries)
         return model_labels(model, image, max_segments)
     if method == "felzenszwalb":
         return split_large(felzenszwalb_labels(arr, max_segments), max_segments)

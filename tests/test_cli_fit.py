@@ -186,6 +186,9 @@ def test_a_fit_without_detail_sprites_still_decodes_everywhere(files, tmp_path):
     (["--steps", "0"], "--steps"),
     (["--size", "8"], "--size"),
     (["--max-textons", "1"], "--max-textons"),
+    (["--queries", "196"], "--queries applies to --segmenter model"),
+    (["--segmenter", "model", "--queries", "0"], "--queries must lie"),
+    (["--segmenter", "model", "--queries", "5000"], "--queries must lie"),
 ])
 def test_bad_fit_arguments_are_one_line(files, tmp_path, capsys, extra, message):
     out = tmp_path / "x.ntex"

@@ -295,3 +295,25 @@ def test_plain_textons_get_zero_offsets_in_the_tuned_layout(model, fitted):
         assert lifted.feature_dim + 2 == tuned.generator.feature_channels
         out = tuned.decode(lifted, (32, 32))
     assert out.shape == (1, 3, 32, 32) and torch.isfinite(out).all()
+
+
+
+def test_more_queries_give_the_learned_segmenter_more_textons_on_a_dense_texture(model):
+    """fit --segmenter model --queries: E_s's 100 queries resampled to 196 (no training)
+    split the brick wall (about 130 bricks) into more textons than the 100 queries can; only
+    the query embeddings differ, and the model itself is left as it was."""
+    from pathlib import Path
+
+    from neuraltex.imageio import load_image
+    from neuraltex.query_grid import with_queries
+
+    image = load_image(Path(__file__).resolve().parents[1] / "data/real_textures/brick.png")
+    assert with_queries(model, 100) is model
+    dense, before = with_queries(model, 196), model.state_dict()
+    after = dense.state_dict()
+    assert after["segmenter.query_feat"].shape[0] == 196
+    assert all(torch.equal(after[k], v) for k, v in before.items() if "query_" not in k)
+    few = segment_labels(image, "model", model=model)
+    many = segment_labels(image, "model", model=model, queries=196)
+    assert many.max() + 1 > 1.5 * (few.max() + 1)
+    assert model.state_dict()["segmenter.query_feat"].shape[0] == 100
