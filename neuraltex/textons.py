@@ -233,10 +233,14 @@ class Textons:
         t = torch.as_tensor(t, device=self.device, dtype=self.dtype)
         if A.shape[-2:] != (2, 2):
             raise ValueError(f"A must end in (2, 2), got {tuple(A.shape)}")
-        mu = (A @ self.mu.unsqueeze(-1)).squeeze(-1) + t
-        cov = A @ self.cov @ A.transpose(-1, -2)
-        cov = 0.5 * (cov + cov.transpose(-1, -2))  # keep exactly symmetric
-        v = F.normalize((A @ self.v.unsqueeze(-1)).squeeze(-1), dim=-1, eps=1e-12)
+        # in the textons' own precision, also under autocast (trainer.amp): a covariance
+        # rounded to bfloat16 loses its determinant, and the splatting's inverse of it gave
+        # non-finite gradients on a third of the full training steps
+        with torch.autocast(self.device.type, enabled=False):
+            mu = (A @ self.mu.unsqueeze(-1)).squeeze(-1) + t
+            cov = A @ self.cov @ A.transpose(-1, -2)
+            cov = 0.5 * (cov + cov.transpose(-1, -2))  # keep exactly symmetric
+            v = F.normalize((A @ self.v.unsqueeze(-1)).squeeze(-1), dim=-1, eps=1e-12)
         return replace(self, mu=mu, cov=cov, v=v)
 
     def translate(self, dx: float, dy: float) -> Textons:

@@ -82,6 +82,19 @@ def test_affine_transforms_mu_cov_v_consistently(textons):
     assert torch.equal(out.f, textons.f) and torch.equal(out.order, textons.order)
 
 
+
+def test_affine_keeps_float32_geometry_under_bfloat16_autocast(textons):
+    """The equivariance term transforms textons inside the trainer's autocast (trainer.amp);
+    their geometry stays float32 and equal to the plain transform (a bfloat16 covariance
+    lost its determinant and the splatting's inverse gave non-finite gradients)."""
+    A = torch.tensor([[1.2, 0.3], [-0.4, 0.8]])
+    plain = textons.affine(A, (0.1, -0.2))
+    with torch.autocast("cpu", dtype=torch.bfloat16):
+        mixed = textons.affine(A, (0.1, -0.2))
+    for name in ("mu", "cov", "v"):
+        got, want = getattr(mixed, name), getattr(plain, name)
+        assert got.dtype == torch.float32 and torch.allclose(got, want, atol=1e-6), name
+
 def test_rotate_scale_translate(textons):
     r = textons.rotate(90, center=(0.5, 0.5))
     # Counter-clockwise on screen with y down: (x, y) -> (cx + (y - cy), cy - (x - cx)).
