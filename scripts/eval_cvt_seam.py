@@ -75,7 +75,7 @@ def render(path: Path, width: int) -> np.ndarray:
     return np.asarray(Image.open(io.BytesIO(png)).convert("RGB"), np.float32) / 255
 
 
-def _seams(tiles: list[dict], name: str) -> np.ndarray:
+def own_seams(tiles: list[dict], name: str) -> np.ndarray:
     """Ratio of the tiles' own seams (line 0) for ``name``."""
     return pooled_ratios(MEASURES[name], [t[name] for t in tiles], np.zeros((1, len(tiles), 2),
                                                                            int))
@@ -125,7 +125,7 @@ def report(sets, measure: str, args) -> None:
         values = [t[measure] for t in tiles]
         null = pooled_ratios(MEASURES[measure], values, rolled_draws(values, args.rolls))
         nulls.append(null)
-        row = {k: _seams(sets[k][name], measure) for k in every if sets[k][name]}
+        row = {k: own_seams(sets[k][name], measure) for k in every if sets[k][name]}
         for k in row:
             every[k] += sets[k][name]
         print(f"- {name}: tiles {row['tileable'][0]:.3f} ({len(tiles)} tiles; rolled, "
@@ -136,8 +136,8 @@ def report(sets, measure: str, args) -> None:
                  if "plain" in row else ""))
     weights = np.array([len(t) for t in sets["tileable"].values()], float)
     null = np.average(np.stack(nulls), axis=0, weights=weights)  # (rolls,) all tile axes
-    pooled = {k: _seams(v, measure)[0] for k, v in every.items() if v}
-    flagged = {k: np.mean([_seams(sets[k][n], measure)[0] > MARGIN_RATIO for n in sets[k]])
+    pooled = {k: own_seams(v, measure)[0] for k, v in every.items() if v}
+    flagged = {k: np.mean([own_seams(sets[k][n], measure)[0] > MARGIN_RATIO for n in sets[k]])
                for k in ("misaligned", "plain") if sets[k]}
     print(f"pooled over {len(weights)} exemplars, {int(weights.sum())} tiles: tiles "
           f"{pooled['tileable']:.3f}; rolled (seamless): 5-95 % {np.quantile(null, 0.05):.3f}-"

@@ -140,10 +140,12 @@ def tileable_seam(tex, image: np.ndarray, size, seeds: list[int]) -> dict:
         cut.append(cvt_seam.lines_of(misaligned(pic, SEAM_SHIFT), cvt_seam.MEASURES))
     step, wrap, inside = (float(np.mean([r[i] for r in runs])) for i in range(3))
     spread = np.mean([r[3] for r in runs], axis=0)
-    return {"seam": step, "seam_swd": wrap, "inner_swd": inside, "inner_lines": spread,
-            "rank": int((spread < wrap).sum()), "seeds": len(runs),
-            "tiling_seam": base.seam(base.tiling(image, size)), "lines": lines, "cut": cut,
-            "tile": tiles[0]}
+    out = {"seam": step, "seam_swd": wrap, "inner_swd": inside, "inner_lines": spread,
+           "rank": int((spread < wrap).sum()), "seeds": len(runs),
+           "tiling_seam": base.seam(base.tiling(image, size)), "lines": lines, "cut": cut,
+           "tile": tiles[0]}
+    out["ratios"] = line_ratios(out)
+    return out
 
 
 def line_ratios(tile: dict, rolls: int = 2000, measures=tuple(cvt_seam.MEASURES)
@@ -154,8 +156,8 @@ def line_ratios(tile: dict, rolls: int = 2000, measures=tuple(cvt_seam.MEASURES)
     for m in measures:
         values = [t[m] for t in tile["lines"]]
         null = pooled_ratios(cvt_seam.MEASURES[m], values, rolled_draws(values, rolls))
-        out[m] = (float(cvt_seam._seams(tile["lines"], m)[0]), null,
-                  float(cvt_seam._seams(tile["cut"], m)[0]))
+        out[m] = (float(cvt_seam.own_seams(tile["lines"], m)[0]), null,
+                  float(cvt_seam.own_seams(tile["cut"], m)[0]))
     return out
 
 
@@ -222,7 +224,7 @@ def seam_summary(seams: list[dict]) -> list[str]:
 def _pooled_lines(seams: list[dict], m: str) -> str:
     """cvt's seam / interior for measure ``m`` over every tile of every texture, per texture
     within MARGIN_RATIO, and the seamless (rolled) and real (cut) references."""
-    per = [line_ratios(s, measures=(m,))[m] for s in seams]
+    per = [s["ratios"][m] for s in seams]
     w = np.array([s["seeds"] for s in seams], float)
     null = np.average(np.stack([p[1] for p in per]), axis=0, weights=w)
     pooled = float(np.average([p[0] for p in per], weights=w))
@@ -238,7 +240,7 @@ def _pooled_lines(seams: list[dict], m: str) -> str:
 def seam_text(tile: dict) -> str:
     cvt = "; ".join(f"{m} {r:.2f} (rolled 5-95 % {np.quantile(null, 0.05):.2f}-"
                     f"{np.quantile(null, 0.95):.2f}, cut {cut:.2f})"
-                    for m, (r, null, cut) in line_ratios(tile).items())
+                    for m, (r, null, cut) in tile["ratios"].items())
     return (f"  seam {tile['seam']:.2f} swd wrap/in {tile['seam_swd']:.1f}/"
             f"{tile['inner_swd']:.1f} interior lines {tile['inner_lines'].min():.1f}-"
             f"{tile['inner_lines'].max():.1f} wrap above {tile['rank']}/{SEAM_LINES - 1}"

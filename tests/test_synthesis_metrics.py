@@ -78,5 +78,7 @@ def test_cvt_line_measures_pass_seamless_tiles_and_flag_cut_ones():
     bad = eval_synthesis.line_ratios(cut, rolls=200, measures=(step,))[step][0]
     assert ok <= 1.1 < bad and shifted > 1.1  # the tiles cut out of register: a seam
     assert null.shape == (200,) and 0.8 < np.median(null) < 1.2  # rolled: no seam
+    for t in (whole, cut):
+        t["ratios"] = eval_synthesis.line_ratios(t, rolls=200, measures=(step,))
     text = eval_synthesis._pooled_lines([whole, cut], step)
     assert "within 1.1 on 1/2 textures" in text
