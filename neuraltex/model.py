@@ -10,7 +10,6 @@ module only wires them, and the config holds the estimation/splatting settings. 
 
 from __future__ import annotations
 
-from dataclasses import replace
 from pathlib import Path
 from typing import NamedTuple
 
@@ -159,11 +158,10 @@ def load_model(path, device: str | torch.device = "cpu",
     state, config, info = load_exported_model(path)
     try:
         cfg = ModelConfig.from_dict(config)
-        if num_queries and num_queries != cfg.networks().segmentation.num_queries:
-            from neuraltex.query_grid import adapt_queries
+        if num_queries:
+            from neuraltex.query_grid import resampled
 
-            cfg = replace(cfg, num_queries=num_queries)
-            state = adapt_queries(state, num_queries)
+            cfg, state = resampled(cfg, state, num_queries)
         model = build_model(cfg, info=info)
         model.load_state_dict(state)
     except (KeyError, ValueError, RuntimeError, TypeError) as exc:

@@ -57,12 +57,21 @@ def adapt_queries(state: dict[str, torch.Tensor], n: int,
 def with_queries(model, n: int):
     """A copy of the autoencoder ``model`` whose E_s has n queries (resampled, no training);
     ``model`` itself when it has n already. Raises KeyError when its E_s has no queries."""
-    from dataclasses import replace
-
     from neuraltex.model import build_model
 
     if n == model.config.networks().segmentation.num_queries:
         return model
-    copy = build_model(replace(model.config, num_queries=n), info=model.info)
-    copy.load_state_dict(adapt_queries(model.state_dict(), n))
+    cfg, state = resampled(model.config, model.state_dict(), n)
+    copy = build_model(cfg, info=model.info)
+    copy.load_state_dict(state)
     return copy.to(next(model.parameters()).device).eval()
+
+
+def resampled(cfg, state: dict[str, torch.Tensor], n: int):
+    """(model config, state dict) of a model with n queries: E_s's embeddings resampled
+    (:func:`adapt_queries`); unchanged when it has n already."""
+    from dataclasses import replace
+
+    if n == cfg.networks().segmentation.num_queries:
+        return cfg, state
+    return replace(cfg, num_queries=n), adapt_queries(state, n)
