@@ -297,7 +297,6 @@ def test_plain_textons_get_zero_offsets_in_the_tuned_layout(model, fitted):
     assert out.shape == (1, 3, 32, 32) and torch.isfinite(out).all()
 
 
-
 def test_more_queries_give_the_learned_segmenter_more_textons_on_a_dense_texture(model):
     """fit --segmenter model --queries: E_s's 100 queries resampled to 196 (no training)
     split the brick wall (about 130 bricks) into more textons than the 100 queries can; only

@@ -93,4 +93,3 @@ def test_bfloat16_masks_are_scored_in_float32():
     assert loss.dtype == torch.float32 and abs(float(loss.detach()) - float(ref)) < 0.02
     loss.backward()
     assert half.grad.dtype == torch.bfloat16 and torch.isfinite(half.grad.float()).all()
-

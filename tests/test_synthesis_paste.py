@@ -122,7 +122,6 @@ def test_a_texture_without_ground_pastes_as_with_the_fixed_margin():
                zip(a, b, strict=True))
 
 
-
 def test_the_wrap_is_no_join_of_the_fill():
     """On a torus no line is special: moving a tileable paste moves its filled picture with
     it. (The wrap row and column were taken for a join between copies and blurred: the fill

@@ -82,7 +82,6 @@ def test_affine_transforms_mu_cov_v_consistently(textons):
     assert torch.equal(out.f, textons.f) and torch.equal(out.order, textons.order)
 
 
-
 def test_affine_keeps_float32_geometry_under_bfloat16_autocast(textons):
     """The equivariance term transforms textons inside the trainer's autocast (trainer.amp);
     their geometry stays float32 and equal to the plain transform (a bfloat16 covariance
