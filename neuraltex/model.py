@@ -92,13 +92,17 @@ class TextonAutoencoder(nn.Module):
     def segment(self, image: Tensor) -> Tensor:
         """E_s: image (B, 3, H, W) in [0, 1] -> masks S (B, n, h, w), softmax over the n
         queries, at the estimation resolution."""
+        return self.segment_logits(image).softmax(dim=1)
+
+    def segment_logits(self, image: Tensor) -> Tensor:
+        """E_s before its softmax: image (B, 3, H, W) in [0, 1] -> logits (B, n, h, w) at the
+        estimation resolution (a loss on sampled pixels takes the softmax of those only)."""
         size = self._estimation_hw(image)
         if isinstance(self.segmenter, SegmentationNet):
-            return self.segmenter(image * 2 - 1, out_size=size).logits.softmax(dim=1)
+            return self.segmenter(image * 2 - 1, out_size=size).logits
         seg = self.segmenter(image * 2 - 1)
         logits = getattr(seg, "logits", seg)  # (B, n, h', w')
-        logits = F.interpolate(logits, size=size, mode="bilinear", align_corners=False)
-        return logits.softmax(dim=1)
+        return F.interpolate(logits, size=size, mode="bilinear", align_corners=False)
 
     def render(self, textons: Textons, size: tuple[int, int]) -> Splat:
         return splat(textons, size, cutoff=self.cutoff)

@@ -93,3 +93,22 @@ def test_bfloat16_masks_are_scored_in_float32():
     assert loss.dtype == torch.float32 and abs(float(loss.detach()) - float(ref)) < 0.02
     loss.backward()
     assert half.grad.dtype == torch.bfloat16 and torch.isfinite(half.grad.float()).all()
+
+
+def test_logits_take_the_softmax_after_the_point_sampling():
+    """``logits=True`` (the segmenter stage: the softmax over the queries only on the sampled
+    pixels) gives the loss and gradients of the softmax taken first, for the same draw."""
+    torch.manual_seed(0)
+    labels = torch.randint(0, 4, (2, 16, 16))
+    logits = torch.randn(2, 5, 16, 16, dtype=torch.float64, requires_grad=True)
+    for points in (None, 40):
+        first = mask_supervision_loss(logits.softmax(1), labels, points,
+                                      torch.Generator().manual_seed(3))
+        (g_first,) = torch.autograd.grad(first, logits)
+        late = mask_supervision_loss(logits, labels, points, torch.Generator().manual_seed(3),
+                                     logits=True)
+        (g_late,) = torch.autograd.grad(late, logits)
+        assert torch.allclose(first, late, atol=1e-12)
+        assert torch.allclose(g_first, g_late, atol=1e-12)
+        if points:  # only the sampled pixels get a gradient
+            assert 0 < int((g_late.abs().sum(1) > 0).sum()) <= 2 * points

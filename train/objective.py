@@ -105,13 +105,14 @@ class GeneratorObjective(nn.Module):
         """Warm-up: E_s learns the given segments; nothing is decoded (recon is blank)."""
         if labels is None:
             raise ValueError("a segmenter warm-up needs loss.mask_supervision=gt or pseudo")
-        masks = self.model.segment(images)  # (B, n, h, w)
-        mask = mask_supervision_loss(masks, labels, self.loss.mask_points, g)
+        logits = self.model.segment_logits(images)  # (B, n, h, w)
+        mask = mask_supervision_loss(logits, labels, self.loss.mask_points, g, logits=True)
         total = w.mask * mask
         logs = {"mask": float(mask.detach()), "total": float(total.detach())}
         if not w.diagnostics:  # a step nobody looks at: no geometry
             return Outputs(total, logs, torch.zeros_like(images), None, None)
         with torch.no_grad():  # geometry only, for the diagnostics and the overlay pictures
+            masks = logits.float().softmax(dim=1)
             B, _, h, wd = masks.shape
             blank = masks.new_zeros(B, 1, h, wd)
             z = estimate_textons(masks, blank, blank.expand(B, 2, h, wd), existence="round")
