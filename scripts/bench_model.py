@@ -12,7 +12,9 @@ and of this tree in the same run: child processes alternate old, new, old, new .
 torch thread each; the medians of the per-step wall times (batch generation included) and
 their ratio are printed, for wall time and for the training process's CPU time (steadier on a
 busy shared machine; a data worker's CPU is not in it). Interleaving keeps the machine's load
-out of the ratios as far as it can.
+out of the ratios as far as it can. ``--layout shipped`` runs each tree with the torch threads
+and data workers its own recipe sets (e.g. the old tree's 2 threads with the batch generated
+inline, against 1 thread and a data worker), i.e. what a user of each tree got on the machine.
 
 Training: full steps of the training program (all losses on: reconstruction + LPIPS, entropy,
 compactness, reshuffle + texture + patch GAN, equivariance consistency + transformed
@@ -102,9 +104,10 @@ def latency(preset: str, size: int) -> float:
 
 
 def recipe_step_times(root: str, recipe: str, size: int, batch: int, steps: int,
-                      extra: list[str]) -> list[float]:
+                      extra: list[str], shipped: bool = False) -> list[float]:
     """Wall seconds of ``steps`` training steps of a shipped recipe, built by the trainer code
-    and configs of the tree ``root`` (this process's import path), after one warm-up step."""
+    and configs of the tree ``root`` (this process's import path), after one warm-up step;
+    ``shipped``: with the torch threads the tree's recipe sets (else 1)."""
     sys.path.insert(0, str(HERE))
     from profile_train import compose, step_settings
 
@@ -112,7 +115,8 @@ def recipe_step_times(root: str, recipe: str, size: int, batch: int, steps: int,
     from train.loop import _batch, train_step
     from train.setup import build
 
-    cfg = compose(recipe, size, batch, extra, root=Path(root))
+    cfg = compose(recipe, size, batch, extra, root=Path(root), threads=None if shipped else 1)
+    torch.set_num_threads(int(cfg.trainer.threads or os.cpu_count()))
     torch.manual_seed(0)
     parts = build(cfg, torch.device("cpu"))
     data = batches(build_dataset(cfg.data, 1000 * batch), batch, 0, 0, 1,
@@ -137,9 +141,11 @@ def compare(old: str, recipe: str, size: int, args) -> dict[str, tuple[float, fl
         for name, root in (("old", old), ("new", str(HERE.parent))):
             cmd = [sys.executable, str(HERE / "bench_model.py"), "--child", root, "--recipes",
                    recipe, "--sizes", str(size), "--batch", str(args.batch), "--steps",
-                   str(args.round_steps), *(["--set", *args.set] if args.set else [])]
-            env = {**os.environ, "PYTHONPATH": root, "OMP_NUM_THREADS": "1",
-                   "MKL_NUM_THREADS": "1"}
+                   str(args.round_steps), "--layout", args.layout,
+                   *(["--set", *args.set] if args.set else [])]
+            env = {**os.environ, "PYTHONPATH": root}
+            if args.layout == "one-thread":
+                env.update(OMP_NUM_THREADS="1", MKL_NUM_THREADS="1")
             out = subprocess.run(cmd, cwd=root, env=env, capture_output=True, text=True)
             if out.returncode:
                 raise SystemExit(f"bench child failed ({root}):\n{out.stderr[-2000:]}")
@@ -169,19 +175,25 @@ def main() -> None:
     ap.add_argument("--round-steps", type=int, default=2, help="with --compare: steps a round")
     ap.add_argument("--set", nargs="*", default=[],
                     help="with --compare: extra Hydra overrides for both trees, key=value")
+    ap.add_argument("--layout", choices=("one-thread", "shipped"), default="one-thread",
+                    help="with --compare: one-thread = 1 torch thread in both trees (compute "
+                    "per core); shipped = each tree's own recipe layout (its trainer.threads "
+                    "and data.num_workers), i.e. what a user of each tree got on this machine")
     ap.add_argument("--child", default=None, help=argparse.SUPPRESS)
     args = ap.parse_args()
-    if args.compare or args.child:
+    if args.compare:
         torch.set_num_threads(1)
     if args.child:
         times = recipe_step_times(args.child, args.recipes, args.sizes[0], args.batch,
-                                  args.steps, args.set)
+                                  args.steps, args.set, args.layout == "shipped")
         import train
 
         print(json.dumps({"times": times, "root": str(Path(train.__file__).parents[1])}))
         return
     if args.compare:
-        print(f"torch {torch.__version__}, 1 thread per process, CPU; batch {args.batch}; "
+        layout = ("1 torch thread per process" if args.layout == "one-thread" else
+                  "each tree's shipped threads and data workers")
+        print(f"torch {torch.__version__}, {layout}, CPU; batch {args.batch}; "
               f"median s/step over {args.rounds} x {args.round_steps} steps, interleaved")
         print("| recipe | old wall s/step | new wall s/step | speed-up (wall) | old CPU s/step "
               "| new CPU s/step | speed-up (CPU) |\n|---|---:|---:|---:|---:|---:|---:|")

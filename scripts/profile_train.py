@@ -35,15 +35,17 @@ ROOT = Path(__file__).resolve().parents[1]
 RECIPES = {"segmenter": "default_segmenter", "full": "default"}
 
 
-def compose(recipe: str, size: int, batch: int, extra: list[str], root: Path = ROOT):
+def compose(recipe: str, size: int, batch: int, extra: list[str], root: Path = ROOT,
+            threads: int | None = 1):
     """The recipe's resolved Hydra config at a step side ``size`` (see the module doc), from
-    the configs of the tree ``root``."""
+    the configs of the tree ``root``; ``trainer.threads`` set to ``threads`` (None: the
+    recipe's own)."""
     from hydra import compose as hydra_compose
     from hydra import initialize_config_dir
 
     over = [f"experiment={RECIPES[recipe]}", f"trainer.batch_size={batch}",
             "trainer.init_from=null", "trainer.init_parts={}", "trainer.resume=null",
-            "trainer.threads=1", "run_dir=/nonexistent"]
+            "run_dir=/nonexistent"] + ([f"trainer.threads={threads}"] if threads else [])
     if recipe == "segmenter":
         over += [f"model.image_size={size}", f"model.estimation_size={size // 2}"]
     else:
