@@ -180,6 +180,31 @@ def test_profile_script_table_and_restores_what_it_labels(tmp_path):
     assert torch.Tensor.backward is backward and train.objective.mask_supervision_loss is loss
 
 
+def test_bench_compare_layouts_set_the_recipes_threads():
+    """bench_model --compare: ``one-thread`` times every tree on 1 torch thread; ``shipped``
+    on the threads its own recipe sets (here an override of the recipe: 2)."""
+    import sys
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[1]
+    sys.path.insert(0, str(root / "scripts"))
+    try:
+        import bench_model
+    finally:
+        sys.path.pop(0)
+    threads = torch.get_num_threads()
+    try:
+        for shipped, want in ((False, 1), (True, 2)):
+            times = bench_model.recipe_step_times(
+                str(root), "segmenter", 32, 2, 1,
+                ["data.num_workers=0", "trainer.threads=2"] if shipped else
+                ["data.num_workers=0"], shipped)
+            assert len(times) == 1 and times[0][0] > 0
+            assert torch.get_num_threads() == want
+    finally:
+        torch.set_num_threads(threads)
+
+
 def test_amp_auto_is_bfloat16_only_where_the_device_runs_it():
     from train.setup import use_amp
 
