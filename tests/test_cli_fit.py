@@ -282,3 +282,21 @@ def test_interpolation_between_texture_files_runs_from_one_to_the_other(files, b
     s = load("s.png")
     assert np.abs(s[:, 0] - ra[:, 0]).max() < 2 / 255
     assert np.abs(s[:, -1] - rb[:, -1]).max() < 2 / 255
+
+
+def test_texture_edit_benchmark_times_every_command(files, capsys):
+    """scripts/bench_texture_edits.py runs each editing command on the texture file through
+    the real CLI and prints a row per command."""
+    import sys
+    from pathlib import Path
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "scripts"))
+    try:
+        import bench_texture_edits
+    finally:
+        sys.path.pop(0)
+    assert bench_texture_edits.main([str(files / "a.ntex"), "--repeat", "1"]) == 0
+    table = capsys.readouterr().out
+    for name in ("reconstruct", "reshuffle", "vary", "edit", "transfer", "interpolate",
+                 "interpolate --spatial", "animate --frames 8", "vectorize"):
+        assert f"| {name} |" in table, name
