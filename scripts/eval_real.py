@@ -212,6 +212,9 @@ def main() -> None:
     ap.add_argument("--segmenter", default="auto", help="fit --segmenter (default auto)")
     ap.add_argument("--detail", type=int,
                     help="fit --detail: sprite side (default: auto; 0: none)")
+    ap.add_argument("--textures", type=Path, default=REAL,
+                    help="folder of real textures (default data/real_textures; the held-out "
+                    "set: data/real_textures_heldout)")
     ap.add_argument("--limit", type=int, help="only the first N real images")
     ap.add_argument("--only", nargs="+", help="only these real images (names without .png)")
     ap.add_argument("--procedural", type=int, default=0, help="also N procedural images")
@@ -238,7 +241,7 @@ def main() -> None:
     print(f"start-up (import + load model): {time.perf_counter() - start:.2f} s")
     settings = FitSettings(segmenter=args.segmenter, seconds=None if args.steps else args.seconds,
                            steps=args.steps, detail=args.detail)
-    images = [(p.stem, load_image(p)) for p in sorted(REAL.glob("*.png"))
+    images = [(p.stem, load_image(p)) for p in sorted(args.textures.glob("*.png"))
               if not args.only or p.stem in args.only][:args.limit]
     images += procedural_images(args.procedural)
     if args.init_only:
