@@ -69,20 +69,14 @@ class ArrangeSettings:
     # borders, and the pieces, rebuilt as whole groups, crowd the output: coins, patch-SWD 19
     # against 16 one by one and 15.5 with this)
     group_init: str = "gaussian"
-    # Also arrange the textons one by one and keep, of the two, the arrangement that covers
-    # the canvas like the input (the choice before session 15). Off: the grouped one alone. On
-    # 14 real textures groups gave the lower patch-SWD on 13 (docs/synthesis.md), and coverage
-    # had kept the one-by-one arrangement on 6 of them, which the fill makes moot.
-    both: bool = False
-    # With ``both``, the two arrangements run at once in two threads of one torch thread each
-    # when the machine has two cores: the same result (each has its own generator), in about
-    # the time of the slower one
+    # The two arrangements (groups, alone) run at once in two threads of one torch thread
+    # each when the machine has two cores: the same result (each has its own generator), in
+    # about the time of the slower one
     parallel: bool = True
 
     @property
-    def steps(self) -> int:  # arranged twice with ``both``: in groups and one by one
-        return len(self.deltas) * self.iterations * (2 if self.group_extent > 0 and self.both
-                                                      else 1)
+    def steps(self) -> int:  # arranged twice with groups: in groups and one by one
+        return len(self.deltas) * self.iterations * (2 if self.group_extent > 0 else 1)
 
 
 @dataclass
@@ -183,10 +177,10 @@ def arrange(textons: Textons, canvas: tuple[float, float], colours: tuple[Tensor
     the elements keep their size) with cvt's engine. ``colours``: (per texton (K, 3), ground
     (3,)) (:func:`texton_colours`); ``channels``: see :func:`layers`.
 
-    With ``settings.group_extent`` the textons are arranged in groups (neighbouring textons
-    of one object move together: coins, bricks, bark ridges stay whole); with
-    ``settings.both`` also one by one, and the arrangement whose elements cover the canvas in
-    the share closest to the input's is kept (:func:`coverage`).
+    With ``settings.group_extent`` the textons are arranged both in groups and one by one, and
+    the arrangement whose elements cover the canvas in the share closest to the input's is
+    kept (:func:`coverage`): groups keep objects whole (coins, bricks, bark ridges), but
+    groups cut from a texture of touching pieces (a leopard's spots) leave holes between them.
     """
     from neuraltex.errors import InputError
 
@@ -200,8 +194,7 @@ def arrange(textons: Textons, canvas: tuple[float, float], colours: tuple[Tensor
     grouped = replace(settings, init=settings.group_init)
     tries = side_by_side(
         [partial(_arrange, textons, elems, back, canvas, colours, s, on_iteration)
-         for s in ((grouped, alone) if settings.group_extent > 0 and settings.both else
-                   (grouped,) if settings.group_extent > 0 else (alone,))],
+         for s in ((grouped, alone) if settings.group_extent > 0 else (alone,))],
         settings.parallel)
     if len(tries) == 1:
         return tries[0]

@@ -67,20 +67,17 @@ def texture_file(image: Path, cache: Path, steps: int) -> Path:
     return out
 
 
-def outputs(model, tex, image: np.ndarray, size, seed: int,
-            both: bool = False) -> tuple[dict, float, str]:
+def outputs(model, tex, image: np.ndarray, size, seed: int) -> tuple[dict, float, str]:
     """({method: picture (H, W, 3)}, seconds of ours, what ours arranged: "groups" or
     "alone") at ``size`` = (H, W). ``image`` (h, w, 3) is the input, ours' source of pixels;
     ``ours_R``: the same arrangement pasted from the reconstruction instead; ``decoded``: ours
     before the elements bring any pixels (the arranged textons decoded). Random placement
     places the same elements as ours, over the same steady background layer, decoded and
-    then pasted from the input the same way. ``both``: ours with ArrangeSettings.both (groups
-    or one by one, whichever covers like the input: the choice before session 15)."""
+    then pasted from the input the same way."""
     textons, decoder = tex.textons, tex.decoder
     source = torch.from_numpy(image).permute(2, 0, 1)
     t = time.perf_counter()
-    ours, arr = synthesize_texture(decoder, textons, tex.short, size,
-                                   ArrangeSettings(seed=seed, both=both),
+    ours, arr = synthesize_texture(decoder, textons, tex.short, size, ArrangeSettings(seed=seed),
                                    labels=tex.labels, source=source)
     seconds = time.perf_counter() - t
     recon = reconstruction(decoder, textons, tex.short)
@@ -299,9 +296,6 @@ def main() -> None:
     p.add_argument("--only", nargs="+", help="texture names (default: all)")
     p.add_argument("--tileable", action="store_true", help="also score ours tileable")
     p.add_argument("--gallery", type=Path, help="write the gallery (JPEG) here")
-    p.add_argument("--both", action="store_true",
-                   help="ours also arranged one by one, the arrangement covering like the "
-                   "input kept (the default before session 15)")
     p.add_argument("--seam-only", action="store_true",
                    help="only ours tileable at the first size, scored by its seam")
     p.add_argument("--seam-gallery", type=Path,
@@ -338,7 +332,7 @@ def main() -> None:
             continue
         rep_in = base.repetition(image)
         for k, size in enumerate(sizes):
-            runs = [outputs(model, tex, image, size, seed, args.both) for seed in seeds]
+            runs = [outputs(model, tex, image, size, seed) for seed in seeds]
             pics, kept = runs[0][0], runs[0][2]  # the gallery shows the first seed
             each = [scores(image, run[0]) for run in runs]
             seconds = float(np.mean([run[1] for run in runs]))

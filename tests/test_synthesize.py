@@ -143,13 +143,9 @@ def test_no_placement_leaves_the_background_alone():
     assert out.num_textons == 1 and coverage(out, 1) == 0.0
 
 
-def test_grouped_by_default_and_with_both_whichever_covers_like_the_input():
+def test_groups_or_textons_alone_whichever_covers_like_the_input():
     t = _tiny_texture()
-    grouped = arrange(t, (2.0, 2.0), _colours(t), ArrangeSettings(iterations=1))
-    assert max(len(g) for g in grouped.groups) > 1
-    assert "coverage" not in " ".join(grouped.notes)
-    assert ArrangeSettings(iterations=1).steps == 1
-    arr = arrange(t, (2.0, 2.0), _colours(t), ArrangeSettings(iterations=1, both=True))
+    arr = arrange(t, (2.0, 2.0), _colours(t), ArrangeSettings(iterations=1))
     assert "coverage: input" in arr.notes[-1]
     alone = arrange(t, (2.0, 2.0), _colours(t), ArrangeSettings(iterations=1, group_extent=0))
     assert all(len(g) == 1 for g in alone.groups) and "coverage" not in " ".join(alone.notes)
@@ -163,13 +159,11 @@ def test_arrangements_in_two_threads_equal_the_sequential_ones():
     result, and which one is kept, are those of running them one after the other."""
     t = _tiny_texture()
     ticks = []
-    par = arrange(t, (2.0, 2.0), _colours(t), ArrangeSettings(iterations=2, both=True),
-                  ticks.append)
-    seq = arrange(t, (2.0, 2.0), _colours(t), ArrangeSettings(iterations=2, both=True,
-                                                             parallel=False))
+    par = arrange(t, (2.0, 2.0), _colours(t), ArrangeSettings(iterations=2), ticks.append)
+    seq = arrange(t, (2.0, 2.0), _colours(t), ArrangeSettings(iterations=2, parallel=False))
     assert par.placements == seq.placements and par.notes == seq.notes
     assert torch.equal(par.textons.mu, seq.textons.mu)
-    assert len(ticks) == ArrangeSettings(iterations=2, both=True).steps == 4  # both report
+    assert len(ticks) == ArrangeSettings(iterations=2).steps  # both report, one at a time
 
 
 def test_side_by_side_keeps_order_grad_mode_and_thread_count():

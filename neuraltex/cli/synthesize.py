@@ -166,5 +166,7 @@ def add_commands(sub) -> None:
                    help="paint the arranged textons with the decoder only (no pixels "
                    "pasted under the placed elements)")
     p.add_argument("--threads", type=types.integer(1, 256), default=min(2, usable_cores()),
-                   help="CPU threads (default: 2, or 1 on a one-core machine)")
+                   help="CPU threads; with 2 or more the two arrangements (the textons in "
+                   "groups, and one by one) run side by side (default: 2, or 1 on a one-core "
+                   "machine)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
