@@ -1,17 +1,18 @@
 """Benchmark of ``neuraltex synthesize`` on the real textures, beside its baselines.
 
-For each texture of data/real_textures (256 px): ``neuraltex fit --steps N`` (cached), then at
-every output size ours (``neuraltex synthesize X.ntex --source X.png``: the texture file's
-textons arranged by cvt, decoded by its tuned decoder, the placed elements bringing the input's
-pixels), 2 x 2 tiling of the input, random placement of the same elements (same decoder,
-background layer, paste and fill) and image quilting (Efros-Freeman 2001), all scored against
-the input by multi-scale patch-SWD, a random-CNN Gram distance and the repetition measure
-(scripts/synthesis_baselines.py says what each is); with ``--tileable`` also ours tileable at
-the first size, scored by its seam. Prints one row per texture and size (``ours_R``: the same
-arrangement pasted from the reconstruction, what the texture file alone gives without
---source; ``decoded``: ours before any paste; ``recon``: the tuned reconstruction at its own
-size), then the targets of the issue; ``--gallery`` writes input | tiling | quilting | ours
-decoded only | ours for a few textures.
+For each texture of data/real_textures (256 px): ``neuraltex fit --steps N`` (cached), then
+at every output size ours (``neuraltex synthesize X.ntex --source X.png``: the texture
+file's textons arranged by cvt, decoded by its tuned decoder, the placed elements bringing
+the input's pixels), 2 x 2 tiling of the input, random placement of the same elements (same
+decoder, background layer, paste and fill; ``random_g``: of their whole groups, the stronger
+baseline where ours arranged its textons one by one) and image quilting (Efros-Freeman
+2001), all scored against the input by multi-scale patch-SWD, a random-CNN Gram distance and
+the repetition measure (scripts/synthesis_baselines.py says what each is); with
+``--tileable`` also ours tileable at the first size, scored by its seam. Prints one row per
+texture and size (``ours_R``: the same arrangement pasted from the reconstruction, what the
+texture file alone gives without --source; ``decoded``: ours before any paste; ``recon``:
+the tuned reconstruction at its own size), then the targets of the issue; ``--gallery``
+writes input | tiling | quilting | ours decoded only | ours for a few textures.
 
     python scripts/eval_synthesis.py --steps 300 --cache /tmp/eval_synthesis --tileable \
         --gallery docs/synthesis_gallery.jpg
@@ -35,6 +36,7 @@ import eval_cvt_seam as cvt_seam  # noqa: E402
 import synthesis_baselines as base  # noqa: E402
 
 from cvt.seam import MARGIN_RATIO, misaligned, pooled_ratios, rolled_draws  # noqa: E402
+from neuraltex.texton_groups import texton_groups  # noqa: E402
 from neuraltex.texton_synthesis import (  # noqa: E402
     ArrangeSettings,
     decode_arranged,
@@ -49,7 +51,7 @@ from neuraltex.texton_synthesis import (  # noqa: E402
 
 # ours_R: ours pasted from the reconstruction (a texture file without --source); decoded:
 # ours before the paste (the decode alone); recon: the reconstruction at its own size
-METHODS = ("ours", "ours_R", "decoded", "tiling", "random", "quilting", "recon")
+METHODS = ("ours", "ours_R", "decoded", "tiling", "random", "random_g", "quilting", "recon")
 SEAM_LINES = 16  # the wrap band is also ranked among the bands at k / 16 inside
 SEAM_SHIFT = 4  # px out of register of the real-seam reference (eval_cvt_seam.py --shift)
 GALLERY = ("brick", "leopard", "java_beans", "gravel", "leaves", "cells_ihc")
@@ -88,18 +90,27 @@ def outputs(model, tex, image: np.ndarray, size, seed: int) -> tuple[dict, float
     _, _, back = layers(textons, channels=plain)
     steady = steady_background(textons, back, plain, tex.short, decoder.cutoff)
     canvas = (size[1] / tex.short, size[0] / tex.short)
-    placed = base.random_placement(textons, arr.rows, arr.groups, size, tex.short, seed)
-    each = [(e, dx, dy) for g, dx, dy in placed for e in arr.groups[g]]
-    rand = decode_arranged(decoder, place(steady, arr.rows, each, back, canvas), size,
-                           background=len(back))
-    if tex.labels is not None:
-        rand = paste_arranged(textons, arr.rows, arr.groups, placed, pixels, tex.labels,
-                              tex.short, rand)
-    pics = {"ours": ours, "ours_R": ours_r, "decoded": arr.decoded,
-            "tiling": base.tiling(image, size),
-            "random": rand, "quilting": base.quilting(image, size, seed),
-            "recon": recon.clamp(0, 1)}  # recon: at the input size, a reference only
+
+    def random(groups: list[list[int]]) -> torch.Tensor:
+        placed = base.random_placement(textons, arr.rows, groups, size, tex.short, seed)
+        each = [(e, dx, dy) for g, dx, dy in placed for e in groups[g]]
+        out = decode_arranged(decoder, place(steady, arr.rows, each, back, canvas), size,
+                              background=len(back))
+        if tex.labels is not None:
+            out = paste_arranged(textons, arr.rows, groups, placed, pixels, tex.labels,
+                                 tex.short, out)
+        return out
+
     kept = "groups" if max(len(g) for g in arr.groups) > 1 else "alone"
+    rand = random(arr.groups)
+    # the same elements' whole groups (what ours arranges when it keeps groups): where ours
+    # kept its textons one by one, random placement of groups is the stronger baseline
+    grouped = texton_groups(steady, arr.rows, extent=ArrangeSettings().group_extent)
+    pics = {"ours": ours, "ours_R": ours_r, "decoded": arr.decoded,
+            "tiling": base.tiling(image, size), "random": rand,
+            "random_g": rand if kept == "groups" else random(grouped),
+            "quilting": base.quilting(image, size, seed),
+            "recon": recon.clamp(0, 1)}  # recon: at the input size, a reference only
     return {k: _hwc(v) for k, v in pics.items()}, seconds, kept
 
 
@@ -176,6 +187,8 @@ def summary(results: list[dict]) -> list[str]:
         pairs = [p for r in rs for p in r["per_seed"]]  # (ours, random) of every seed
         beat_dec = sum(r["sc"]["ours"]["swd"] < r["sc"]["decoded"]["swd"] for r in rs)
         beat_rand = sum(r["sc"]["ours"]["swd"] < r["sc"]["random"]["swd"] for r in rs)
+        beat_both = sum(r["sc"]["ours"]["swd"] < min(r["sc"]["random"]["swd"],
+                                                     r["sc"]["random_g"]["swd"]) for r in rs)
         beat_q, beat_q_r = (sum(r["sc"][m]["swd"] < r["sc"]["quilting"]["swd"]
                                 or r["sc"][m]["gram"] < r["sc"]["quilting"]["gram"] for r in rs)
                             for m in ("ours", "ours_R"))
@@ -190,6 +203,8 @@ def summary(results: list[dict]) -> list[str]:
                   f"  ours < random placement on patch-SWD: {beat_rand}/{n} (target: all; "
                   f"{len(pairs) // n} seed(s) each, their mean; single seeds: "
                   f"{sum(o < r for o, r in pairs)}/{len(pairs)})",
+                  f"  ours < random placement, the better of the same elements and their "
+                  f"whole groups (random_g), on patch-SWD: {beat_both}/{n}",
                   f"  ours < decoded (the arrangement decoded, no paste) on patch-SWD: "
                   f"{beat_dec}/{n}",
                   f"  ours < quilting on patch-SWD or gram: {beat_q}/{n} (target >= 60%)",

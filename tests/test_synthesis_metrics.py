@@ -57,6 +57,25 @@ def test_scores_of_several_seeds_are_averaged_per_method_and_measure():
                                "rep": pytest.approx(0.2)}}
 
 
+def test_summary_counts_wins_over_the_stronger_random_placement():
+    """ours must beat random placement of the same elements and of their whole groups
+    (random_g) to count in the stronger line; the same-elements line counts the first only."""
+    import eval_synthesis
+
+    def sc(ours, rand, rand_g):
+        out = {m: {"swd": 1.0, "gram": 0.1, "rep": 0.1} for m in eval_synthesis.METHODS}
+        out["ours"]["swd"], out["random"]["swd"], out["random_g"]["swd"] = ours, rand, rand_g
+        return out
+
+    results = [{"size": (8, 8), "sc": sc(1.0, 2.0, 0.5), "per_seed": [(1.0, 2.0)],
+                "rep_in": 0.1, "seconds": 1.0},
+               {"size": (8, 8), "sc": sc(1.0, 2.0, 3.0), "per_seed": [(1.0, 2.0)],
+                "rep_in": 0.1, "seconds": 1.0}]
+    text = "\n".join(eval_synthesis.summary(results))
+    assert "ours < random placement on patch-SWD: 2/2" in text
+    assert "whole groups (random_g), on patch-SWD: 1/2" in text
+
+
 def test_cvt_line_measures_pass_seamless_tiles_and_flag_cut_ones():
     """eval_synthesis --seam-only scores tiles with cvt's line statistics as well: seam line
     against its neighbours, pooled over several tiles (seeds). Whole periods of a random
