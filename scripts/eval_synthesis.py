@@ -298,7 +298,9 @@ def seam_gallery(tiles: list[np.ndarray], path: Path, side: int = 384) -> None:
 
 def add_texture_options(p: argparse.ArgumentParser) -> None:
     """--textures, --cache and --steps: where the real textures and their texture files are."""
-    p.add_argument("--textures", type=Path, default=ROOT / "data" / "real_textures")
+    p.add_argument("--textures", type=Path, default=ROOT / "data" / "real_textures",
+                   help="folder of real textures (default data/real_textures; the held-out "
+                   "set: data/real_textures_heldout)")
     p.add_argument("--cache", type=Path, default=Path("/tmp/eval_synthesis"),
                    help="texture files (.ntex) are fitted once and kept here")
     p.add_argument("--steps", type=int, default=300, help="fit steps per texture")
@@ -316,7 +318,8 @@ def main() -> None:
     p.add_argument("--seam-gallery", type=Path,
                    help="with --seam-only: write the first six textures' tiles, each tiled "
                         "2 x 2, here (JPEG)")
-    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--seed", type=int, default=0,
+                   help="first seed of ours, random placement and quilting (default 0)")
     p.add_argument("--seeds", type=int, default=1,
                    help="outputs per texture and size, with seeds --seed, --seed + 1, ...: "
                         "every method's scores are their mean (one seed's patch-SWD swings "
