@@ -81,6 +81,13 @@ def own_seams(tiles: list[dict], name: str) -> np.ndarray:
                                                                            int))
 
 
+def rolled_seams(tiles: list[dict], name: str, rolls: int) -> np.ndarray:
+    """(rolls,) ratios of the same tiles rolled to random lines for ``name``: seamless by
+    construction, the measure's own noise."""
+    values = [t[name] for t in tiles]
+    return pooled_ratios(MEASURES[name], values, rolled_draws(values, rolls))
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("folder", help="--seam-cache folder of eval_cvt.py --real --tileable")
@@ -122,8 +129,7 @@ def report(sets, measure: str, args) -> None:
     every = {k: [] for k in ("tileable", "misaligned", "plain")}
     nulls = []
     for name, tiles in sets["tileable"].items():
-        values = [t[measure] for t in tiles]
-        null = pooled_ratios(MEASURES[measure], values, rolled_draws(values, args.rolls))
+        null = rolled_seams(tiles, measure, args.rolls)
         nulls.append(null)
         row = {k: own_seams(sets[k][name], measure) for k in every if sets[k][name]}
         for k in row:

@@ -35,7 +35,7 @@ sys.path.insert(0, str(ROOT / "scripts"))
 import eval_cvt_seam as cvt_seam  # noqa: E402
 import synthesis_baselines as base  # noqa: E402
 
-from cvt.seam import MARGIN_RATIO, misaligned, pooled_ratios, rolled_draws  # noqa: E402
+from cvt.seam import MARGIN_RATIO, misaligned  # noqa: E402
 from neuraltex.texton_groups import texton_groups  # noqa: E402
 from neuraltex.texton_synthesis import (  # noqa: E402
     ArrangeSettings,
@@ -163,13 +163,9 @@ def line_ratios(tile: dict, rolls: int = 2000, measures=tuple(cvt_seam.MEASURES)
                 ) -> dict[str, tuple[float, np.ndarray, float]]:
     """Per cvt seam measure: (the tiles' seam / interior, the same tiles rolled to random
     lines (seamless by construction: the measure's noise), the tiles cut out of register)."""
-    out = {}
-    for m in measures:
-        values = [t[m] for t in tile["lines"]]
-        null = pooled_ratios(cvt_seam.MEASURES[m], values, rolled_draws(values, rolls))
-        out[m] = (float(cvt_seam.own_seams(tile["lines"], m)[0]), null,
-                  float(cvt_seam.own_seams(tile["cut"], m)[0]))
-    return out
+    return {m: (float(cvt_seam.own_seams(tile["lines"], m)[0]),
+                cvt_seam.rolled_seams(tile["lines"], m, rolls),
+                float(cvt_seam.own_seams(tile["cut"], m)[0])) for m in measures}
 
 
 def row_text(name: str, size, sc: dict, seconds: float, rep_in: float, kept: str) -> str:
