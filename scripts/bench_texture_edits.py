@@ -21,6 +21,7 @@ import statistics
 import sys
 import tempfile
 import time
+from functools import partial
 from pathlib import Path
 
 FRAMES = 8  # frames of animate and interpolate --frames
@@ -46,14 +47,13 @@ def commands(a: Path, b: Path, out: Path, edits: Path) -> dict[str, list[str]]:
     }
 
 
-def timed(argv: list[str]) -> tuple[float, float]:
+def run(argv: list[str]) -> None:
+    """One ``neuraltex`` call in this process; a failed one stops the benchmark."""
     from neuraltex.cli import main
 
-    w, c = time.perf_counter(), time.process_time()
     code = main(argv)
     if code:
         raise SystemExit(f"neuraltex {' '.join(argv)} exited with {code}")
-    return time.perf_counter() - w, time.process_time() - c
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -66,6 +66,9 @@ def main(argv: list[str] | None = None) -> int:
     import torch
 
     import neuraltex.cli  # noqa: F401  (the start-up a CLI call pays once)
+
+    sys.path.insert(0, str(Path(__file__).resolve().parent))
+    from bench_edit import best_of  # (wall, CPU) seconds of the best of N calls
 
     torch.set_num_threads(args.threads)
     print(f"start-up (import torch + neuraltex): {time.perf_counter() - w0:.2f} s; "
@@ -80,8 +83,7 @@ def main(argv: list[str] | None = None) -> int:
         for i, a in enumerate(args.files):
             b = args.files[(i + 1) % len(args.files)]
             for name, cmd in commands(a, b, out, edits).items():
-                best = min((timed(cmd) for _ in range(args.repeat)), key=lambda t: t[0])
-                rows.setdefault(name, []).append(best)
+                rows.setdefault(name, []).append(best_of(partial(run, cmd), args.repeat))
             print(f"  {a.name}: " + ", ".join(f"{k} {v[-1][0]:.2f} s" for k, v in rows.items()),
                   file=sys.stderr, flush=True)
     print(f"| command ({len(args.files)} texture files) | wall s mean | wall s max | "
