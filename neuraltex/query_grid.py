@@ -13,6 +13,7 @@ tensors depend on n; every other weight is shared as it is.
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import torch
 import torch.nn.functional as F
@@ -70,8 +71,6 @@ def with_queries(model, n: int):
 def resampled(cfg, state: dict[str, torch.Tensor], n: int):
     """(model config, state dict) of a model with n queries: E_s's embeddings resampled
     (:func:`adapt_queries`); unchanged when it has n already."""
-    from dataclasses import replace
-
     if n == cfg.networks().segmentation.num_queries:
         return cfg, state
     return replace(cfg, num_queries=n), adapt_queries(state, n)
