@@ -227,3 +227,99 @@ def _explained(lat: Lattice, centers, kinds, boxes, whole, viewbox, tol) -> floa
             total += 1
             found += bool(inside.any())
     return found / max(total, 1)
+
+
+def cell_copies(basis: np.ndarray, centers: np.ndarray, boxes: np.ndarray, in_box, out_box,
+                rng: np.random.Generator,
+                torus: tuple[float, float] | None = None) -> list[tuple[int, float, float]] | None:
+    """(element, dx, dy) of a plane tiled with the cells of a lattice, each cell's elements
+    copied from a cell of the exemplar drawn at random (near-regular synthesis: the grid
+    stays, the cells' content varies where the exemplar's cells differ), for every copy
+    touching ``out_box``; None when the exemplar holds no whole cell. An element belongs to
+    the cell its centre is in. ``torus`` = (W, H): the output wraps around with those
+    periods, which must be lattice vectors (:func:`torus_cells`), and cells one period apart
+    copy the same exemplar cell. Shapes: basis (2, 2) rows a, b; centers (E, 2); boxes
+    (E, 4); boxes, ``in_box`` (the exemplar's canvas) and ``out_box`` as (x0, y0, x1, y1)."""
+    inv = np.linalg.inv(basis.T)  # lattice coordinates of a point: inv @ p
+    origin = _cell_origin(basis, in_box)
+    if origin is None:
+        return None
+    cell = np.floor((centers - origin) @ inv.T).astype(int)  # (E, 2) cell of each element
+    whole = _whole_cells(basis, origin, in_box)
+    members = {c: np.nonzero((cell == c).all(1))[0] for c in whole}
+    sources = [c for c in whole if len(members[c])]
+    if not sources:
+        return None
+    reach = np.max(np.abs(boxes - np.c_[centers, centers]), axis=0)  # (4,) farthest extent
+    x0, y0, x1, y1 = out_box
+    corners = np.array([[x0 - reach[2], y0 - reach[3]], [x1 - reach[0], y0 - reach[3]],
+                        [x0 - reach[2], y1 - reach[1]], [x1 - reach[0], y1 - reach[1]]])
+    f = (corners - origin) @ inv.T  # (4, 2)
+    lo, hi = np.floor(f.min(0)).astype(int) - 1, np.ceil(f.max(0)).astype(int) + 1
+    wrap = None if torus is None else torus_cells(basis, torus)
+    chosen: dict[tuple[int, int], tuple[int, int]] = {}
+    out = []
+    for i in range(lo[0], hi[0] + 1):
+        for j in range(lo[1], hi[1] + 1):
+            key = (i, j) if wrap is None else _canonical((i, j), wrap)
+            if key not in chosen:
+                chosen[key] = sources[int(rng.integers(len(sources)))]
+            src = chosen[key]
+            shift = (i - src[0]) * basis[0] + (j - src[1]) * basis[1]
+            for e in members[src]:
+                bx = boxes[e] + np.r_[shift, shift]
+                if bx[0] < x1 and bx[2] > x0 and bx[1] < y1 and bx[3] > y0:
+                    out.append((int(e), float(shift[0]), float(shift[1])))
+    return out
+
+
+def torus_cells(basis: np.ndarray, torus: tuple[float, float],
+                tol: float = AXIS_TOL) -> np.ndarray | None:
+    """The torus periods (W, 0) and (0, H) in whole lattice steps, rows, or None when either
+    is not a lattice vector (within ``tol`` of a step). Shape: basis (2, 2) -> (2, 2) int."""
+    inv = np.linalg.inv(basis.T)
+    steps = inv @ np.array([[torus[0], 0.0], [0.0, torus[1]]])  # columns: the two periods
+    whole = np.round(steps)
+    if np.abs(steps - whole).max() > tol or abs(np.linalg.det(whole)) < 0.5:
+        return None
+    return whole.T.astype(int)
+
+
+def _canonical(ij: tuple[int, int], wrap: np.ndarray) -> tuple[int, int]:
+    """The cell ``ij`` moved by whole torus periods (rows of ``wrap``, integer lattice
+    vectors) into their fundamental cell: one key per cell of the torus."""
+    s = np.linalg.solve(wrap.T.astype(float), np.array(ij, float))
+    k = np.floor(s + 1e-9).astype(int)
+    return tuple(int(v) for v in np.array(ij) - k @ wrap)
+
+
+def _whole_cells(basis: np.ndarray, origin: np.ndarray, box) -> list[tuple[int, int]]:
+    """Cells (i, j) whose parallelogram origin + [i, i+1) a + [j, j+1) b lies in ``box``."""
+    x0, y0, x1, y1 = box
+    inv = np.linalg.inv(basis.T)
+    corners = np.array([[x0, y0], [x1, y0], [x0, y1], [x1, y1]])
+    f = (corners - origin) @ inv.T
+    lo, hi = np.floor(f.min(0)).astype(int), np.ceil(f.max(0)).astype(int)
+    unit = np.array([[0, 0], [1, 0], [0, 1], [1, 1]], float)
+    eps = 1e-6 * max(x1 - x0, y1 - y0)
+    out = []
+    for i in range(lo[0], hi[0] + 1):
+        for j in range(lo[1], hi[1] + 1):
+            p = origin + (unit + [i, j]) @ basis  # (4, 2) corners of the cell
+            if (p[:, 0].min() >= x0 - eps and p[:, 0].max() <= x1 + eps
+                    and p[:, 1].min() >= y0 - eps and p[:, 1].max() <= y1 + eps):
+                out.append((i, j))
+    return out
+
+
+def _cell_origin(basis: np.ndarray, box, steps: int = 4) -> np.ndarray | None:
+    """The cell grid's origin, among ``steps`` x ``steps`` offsets inside one cell, that
+    leaves the most whole cells in ``box`` (the first on ties); None when none does."""
+    best, most = None, 0
+    for u in range(steps):
+        for v in range(steps):
+            origin = np.array(box[:2], float) + (u / steps) * basis[0] + (v / steps) * basis[1]
+            n = len(_whole_cells(basis, origin, box))
+            if n > most:
+                best, most = origin, n
+    return best

@@ -73,6 +73,9 @@ class ArrangeSettings:
     # each when the machine has two cores: the same result (each has its own generator), in
     # about the time of the slower one
     parallel: bool = True
+    # A picture that repeats a tile (neuraltex.raster_lattice) keeps its lattice: the output is
+    # tiled with the input's cells, each from a random whole cell of the input (cvt.lattice)
+    lattice: bool = True
 
     @property
     def steps(self) -> int:  # arranged twice with groups: in groups and one by one
@@ -90,7 +93,9 @@ class Arrangement:
     background_fill: str  # SVG colour of the background layer
     notes: list[str]
     groups: list[list[int]]  # positions into rows of each exemplar element's textons
-    result: object = None  # cvt's SynthesisResult (timings, energies)
+    result: object = None  # cvt's SynthesisResult (timings, energies); None on a lattice
+    kept: str = "alone"  # how the elements were arranged: "groups", "alone" or "lattice"
+    lattice: np.ndarray | None = None  # (2, 2) the input's periods (normalized units), if any
     decoded: Tensor | None = None  # (3, H, W) the decode of the arranged textons
 
 
@@ -172,10 +177,15 @@ def texton_exemplar(textons: Textons, rows: Tensor, groups: list[list[int]], kin
 
 def arrange(textons: Textons, canvas: tuple[float, float], colours: tuple[Tensor, Tensor],
             settings: ArrangeSettings = ArrangeSettings(),
-            on_iteration: Callable | None = None, channels: int | None = None) -> Arrangement:
+            on_iteration: Callable | None = None, channels: int | None = None,
+            lattice: np.ndarray | None = None) -> Arrangement:
     """Arrange one texton set (1, K) on ``canvas`` = (w, h) (normalized units of the input:
     the elements keep their size) with cvt's engine. ``colours``: (per texton (K, 3), ground
-    (3,)) (:func:`texton_colours`); ``channels``: see :func:`layers`.
+    (3,)) (:func:`texton_colours`); ``channels``: see :func:`layers`; ``lattice``: (2, 2)
+    rows a, b, the periods of the picture in normalized units (:func:`picture_lattice`), or
+    None. With a lattice (and ``settings.lattice``) the cells are tiled
+    (:func:`lattice_arrangement`) unless the input holds no whole cell or a tileable canvas is
+    no lattice vector; then, and without one, cvt's synthesis arranges.
 
     With ``settings.group_extent`` the textons are arranged both in groups and one by one, and
     the arrangement whose elements cover the canvas in the share closest to the input's is
@@ -188,6 +198,15 @@ def arrange(textons: Textons, canvas: tuple[float, float], colours: tuple[Tensor
     if len(elems) < 2:
         raise InputError(f"the texture has {len(elems)} element texton(s) besides its "
                          "background: nothing to arrange")
+    notes = []
+    if lattice is not None and settings.lattice:
+        arr = lattice_arrangement(textons, elems, back, canvas, colours, settings, lattice)
+        if arr is not None:
+            arr.lattice = lattice
+            return arr
+        notes.append(f"lattice {_periods_text(lattice)}: "
+                     + ("the tileable canvas is not a whole number of cells" if settings.tileable
+                        else "no whole cell in the input") + "; arranged by cvt instead")
     if on_iteration is not None:  # the arrangements may report from two threads
         on_iteration = _serialized(on_iteration)
     alone = replace(settings, group_extent=0.0)
@@ -196,6 +215,9 @@ def arrange(textons: Textons, canvas: tuple[float, float], colours: tuple[Tensor
         [partial(_arrange, textons, elems, back, canvas, colours, s, on_iteration)
          for s in ((grouped, alone) if settings.group_extent > 0 else (alone,))],
         settings.parallel)
+    for arr in tries:
+        arr.notes[:0] = notes
+        arr.lattice = lattice if settings.lattice else None
     if len(tries) == 1:
         return tries[0]
     target = coverage(textons.index(torch.cat([back, elems])), len(back))
@@ -204,6 +226,55 @@ def arrange(textons: Textons, canvas: tuple[float, float], colours: tuple[Tensor
     tries[best].notes.append(f"coverage: input {target:.3f}, groups {share[0]:.3f}, textons "
                              f"alone {share[1]:.3f}: {('groups', 'textons alone')[best]} kept")
     return tries[best]
+
+
+def picture_lattice(picture: Tensor, short: int) -> np.ndarray | None:
+    """The lattice of a picture (3, H, W) in [0, 1] (:mod:`neuraltex.raster_lattice`), in
+    normalized units at ``short`` pixels per unit, rows a, b; None when it does not repeat.
+    Shape: -> (2, 2)."""
+    from neuraltex.raster_lattice import raster_lattice
+
+    basis = raster_lattice(picture.detach().clamp(0, 1).permute(1, 2, 0).cpu().numpy())
+    return None if basis is None else basis / short
+
+
+def _periods_text(basis: np.ndarray) -> str:
+    return " and ".join(f"({a[0]:.4g}, {a[1]:.4g})" for a in basis)
+
+
+def lattice_arrangement(textons: Textons, elems: Tensor, back: Tensor,
+                        canvas: tuple[float, float], colours: tuple[Tensor, Tensor],
+                        settings: ArrangeSettings, basis: np.ndarray) -> Arrangement | None:
+    """The element textons ``elems`` (E,), one by one, on the cells of the lattice ``basis``
+    (2, 2) tiled over ``canvas`` (:func:`cvt.lattice.cell_copies`: each output cell copies the
+    textons centred in a random whole cell of the input, seeded), over the background textons
+    ``back``; None when the input holds no whole cell, or a tileable canvas is not a lattice
+    vector along both axes."""
+    from cvt.lattice import cell_copies, torus_cells
+    from neuraltex.texton_groups import group_kinds
+
+    if settings.tileable and torus_cells(basis, canvas) is None:
+        return None
+    colours, ground = colours
+    groups = [[i] for i in range(len(elems))]
+    ex = texton_exemplar(textons, elems, groups, group_kinds(textons, elems, groups), colours)
+    boxes = np.stack([e.bbox for e in ex.elements])  # (E, 4)
+    centers = textons.mu[0, elems].detach().cpu().double().numpy()  # (E, 2)
+    w, h = textons.canvas
+    copies = cell_copies(basis, centers, boxes, (0.0, 0.0, w, h), (0.0, 0.0, *canvas),
+                         np.random.default_rng(settings.seed),
+                         canvas if settings.tileable else None)
+    if copies is None:
+        return None
+    placed = copies
+    if settings.tileable:  # one copy each (centre on the canvas); the decode wraps around
+        placed = [p for p in copies if _centred(boxes[p[0]], p, canvas)]
+    out = place(textons, elems, placed, back, canvas)
+    fill = hex_colour(colours[back[0]] if len(back) else ground)
+    note = (f"lattice {_periods_text(basis)}: the input's cells tiled, each from a random "
+            "whole cell of the input")
+    return Arrangement(out, ex, placed, elems, back, copies, fill, [note], groups,
+                       kept="lattice")
 
 
 def _serialized(fn: Callable) -> Callable:
@@ -268,7 +339,8 @@ def _arrange(textons: Textons, elems: Tensor, back: Tensor, canvas: tuple[float,
                 back, canvas)
     fill = hex_colour(colours[back[0]] if len(back) else ground)
     return Arrangement(out, ex, placed, elems, back, pattern.placements, fill,
-                       list(pattern.notes), groups, pattern.result)
+                       list(pattern.notes), groups, pattern.result,
+                       kept="groups" if settings.group_extent > 0 else "alone")
 
 
 def coverage(textons: Textons, skip: int = 0, pitch: int = COVERAGE_PITCH) -> float:
@@ -421,11 +493,12 @@ def synthesize_texture(decoder, textons: Textons, short: int, size: tuple[int, i
     steady = steady_background(textons, layers(textons, settings.seed, plain)[2], plain, short,
                                decoder.cutoff)
     canvas = (size[1] / short, size[0] / short)
-    arr = arrange(steady, canvas, colours, settings, on_iteration, plain)
+    pixels = recon if source is None else source_pixels(source, recon.shape[-2:])
+    lattice = picture_lattice(pixels, short) if settings.lattice else None
+    arr = arrange(steady, canvas, colours, settings, on_iteration, plain, lattice)
     image = decode_arranged(decoder, arr.textons, size, settings.tileable, len(arr.background))
     arr.decoded = image
     if labels is not None:
-        pixels = recon if source is None else source_pixels(source, recon.shape[-2:])
         image = paste_arranged(textons, arr.rows, arr.groups, arr.placements, pixels, labels,
                                short, image, settings.tileable)
     return image, arr

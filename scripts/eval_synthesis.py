@@ -70,8 +70,9 @@ def texture_file(image: Path, cache: Path, steps: int) -> Path:
 
 
 def outputs(model, tex, image: np.ndarray, size, seed: int) -> tuple[dict, float, str]:
-    """({method: picture (H, W, 3)}, seconds of ours, what ours arranged: "groups" or
-    "alone") at ``size`` = (H, W). ``image`` (h, w, 3) is the input, ours' source of pixels;
+    """({method: picture (H, W, 3)}, seconds of ours, what ours arranged: "groups",
+    "alone" or "lattice") at ``size`` = (H, W). ``image`` (h, w, 3) is the input, ours' source
+    of pixels;
     ``ours_R``: the same arrangement pasted from the reconstruction instead; ``decoded``: ours
     before the elements bring any pixels (the arranged textons decoded). Random placement
     places the same elements as ours, over the same steady background layer, decoded and
@@ -101,7 +102,7 @@ def outputs(model, tex, image: np.ndarray, size, seed: int) -> tuple[dict, float
                                  tex.short, out)
         return out
 
-    kept = "groups" if max(len(g) for g in arr.groups) > 1 else "alone"
+    kept = arr.kept
     rand = random(arr.groups)
     # the same elements' whole groups (what ours arranges when it keeps groups): where ours
     # kept its textons one by one, random placement of groups is the stronger baseline
@@ -172,7 +173,7 @@ def row_text(name: str, size, sc: dict, seconds: float, rep_in: float, kept: str
     cells = " ".join(f"{sc[m]['swd']:7.3f} {sc[m]['gram']:6.4f}" for m in METHODS)
     return (f"{name:12s} {size[0]}x{size[1]:<4d} {cells}   rep in/tile/ours/quilt {rep_in:.2f}/"
             f"{sc['tiling']['rep']:.2f}/{sc['ours']['rep']:.2f}/{sc['quilting']['rep']:.2f}"
-            f"  {seconds:5.1f} s  {kept:6s}")
+            f"  {seconds:5.1f} s  {kept:7s}")
 
 
 def summary(results: list[dict]) -> list[str]:

@@ -147,3 +147,78 @@ def test_axis_periods_make_a_hexagonal_lattice_exact_and_refuse_an_irrational_on
     assert np.allclose(lat.b, hexa.b, atol=1e-3)  # moved by its rounding at most
     skew = Lattice(np.array([10.0, 0.0]), np.array([np.sqrt(2) * 10 / 3, 9.0]), np.array([0]), 1.0)
     assert axis_periods(skew) is None
+
+
+def _cells(n: int = 5, step: float = 10.0, vary: bool = False):
+    """n x n cells of side ``step``, each with two elements; with ``vary`` the second one's
+    place differs from cell to cell (the cells' content varies, the grid stays)."""
+    c = []
+    for i in range(n):
+        for j in range(n):
+            c.append([i * step + 3, j * step + 4])
+            c.append([i * step + 6 + (0.1 * (i * n + j) if vary else 0), j * step + 7])
+    c = np.array(c)
+    return c, np.c_[c - 1, c + 1]
+
+
+def test_cell_copies_continue_identical_cells_without_holes_or_stacks():
+    from cvt.lattice import cell_copies
+
+    centers, boxes = _cells()
+    basis = np.array([[10.0, 0], [0, 10]])
+    copies = cell_copies(basis, centers, boxes, (0, 0, 50, 50), (0, 0, 120, 70),
+                         np.random.default_rng(0))
+    p = np.array([centers[e] + [dx, dy] for e, dx, dy in copies]).round(6)
+    assert len(p) == len(np.unique(p, axis=0))  # no element stacked on another
+    inside = p[(p[:, 0] > 1) & (p[:, 0] < 119) & (p[:, 1] > 1) & (p[:, 1] < 69)]
+    expected = {(x + 3, y + 4) for x in range(0, 120, 10) for y in range(0, 70, 10)}
+    expected |= {(x + 6, y + 7) for x in range(0, 120, 10) for y in range(0, 70, 10)}
+    assert {tuple(q) for q in inside} == {q for q in expected if 1 < q[0] < 119 and 1 < q[1] < 69}
+
+
+def test_cell_copies_draw_each_cell_from_a_random_whole_cell_seeded():
+    from cvt.lattice import cell_copies
+
+    centers, boxes = _cells(vary=True)
+    basis = np.array([[10.0, 0], [0, 10]])
+    run = [cell_copies(basis, centers, boxes, (0, 0, 50, 50), (0, 0, 100, 100),
+                       np.random.default_rng(s)) for s in (0, 0, 1)]
+    assert run[0] == run[1] and run[0] != run[2]  # deterministic per seed
+    sources = {e // 2 for e, _, _ in run[0]}  # the exemplar cell each copy came from
+    assert len(sources) > 10  # many different cells, not one cell repeated
+    for _, dx, dy in run[0]:  # whole cells only: every shift is a lattice vector
+        assert np.allclose(np.round(np.array([dx, dy]) / 10) * 10, [dx, dy])
+
+
+def test_cell_copies_on_a_torus_repeat_with_its_periods():
+    from cvt.lattice import cell_copies, torus_cells
+
+    centers, boxes = _cells(vary=True)
+    basis = np.array([[10.0, 0], [0, 10]])
+    assert torus_cells(basis, (60, 40)).tolist() == [[6, 0], [0, 4]]
+    assert torus_cells(basis, (65, 40)) is None  # not a whole number of cells
+    copies = cell_copies(basis, centers, boxes, (0, 0, 50, 50), (0, 0, 130, 90),
+                         np.random.default_rng(3), torus=(60, 40))  # two periods and more
+    at = {}
+    for e, dx, dy in copies:
+        x, y = centers[e] + [dx, dy]
+        at[(round(x, 6), round(y, 6))] = e
+    pairs = 0
+    for (x, y), e in at.items():  # a copy one period away is the same element
+        for ox, oy in ((60, 0), (0, 40)):
+            if (round(x + ox, 6), round(y + oy, 6)) in at:
+                assert at[(round(x + ox, 6), round(y + oy, 6))] == e
+                pairs += 1
+    assert pairs > 100
+    free = cell_copies(basis, centers, boxes, (0, 0, 50, 50), (0, 0, 130, 90),
+                       np.random.default_rng(3))
+    assert {(e, dx, dy) for e, dx, dy in free} != {(e, dx, dy) for e, dx, dy in copies}
+
+
+def test_cell_copies_need_a_whole_cell_in_the_exemplar():
+    from cvt.lattice import cell_copies
+
+    centers, boxes = _cells(n=2)
+    basis = np.array([[30.0, 0], [0, 30]])  # larger than the 20 x 20 exemplar
+    assert cell_copies(basis, centers, boxes, (0, 0, 20, 20), (0, 0, 60, 60),
+                       np.random.default_rng(0)) is None

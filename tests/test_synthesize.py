@@ -293,3 +293,42 @@ def test_source_of_a_texture_file_brings_its_pixels_and_is_checked(files, tmp_pa
     assert main(["synthesize", str(files / "b.png"), "-o", str(bad), "--quiet", "--scale", "2",
                  "--source", str(files / "b.png")]) == 2
     assert "goes with a texture file" in capsys.readouterr().err
+
+
+def test_a_tiled_picture_keeps_its_lattice_unless_told_not_to(tmp_path, capsys):
+    """A tile repeated 3 x 3 grows into the same tile repeated 6 x 6 (each output cell is a
+    whole cell of the input); --no-lattice arranges the textons freely instead."""
+    tile = (generate(0, 0, (16, 20)).image * 255).round().astype(np.uint8)
+    Image.fromarray(np.tile(tile, (3, 3, 1))).save(tmp_path / "tiled.png")
+    continued = np.tile(tile, (6, 6, 1)).astype(float)
+    errors = {}
+    for extra in ([], ["--no-lattice"]):
+        out = tmp_path / f"out{len(extra)}.png"
+        assert main(["synthesize", str(tmp_path / "tiled.png"), "-o", str(out), "--quiet",
+                     "--iterations", "1", "--scale", "2", *extra]) == 0
+        errors[len(extra)] = np.abs(np.asarray(Image.open(out), float) - continued).mean()
+        err = capsys.readouterr().err
+        assert ("periods (0.0, 16.0) and (20.0, 0.0) px: its cells tiled" in err) == (not extra)
+    assert errors[0] < 2.0  # of 255: the tile continued, up to the decoded ground's seams
+    assert errors[1] > 10.0
+
+
+def test_lattice_arrangement_copies_whole_cells_and_falls_back_when_they_do_not_fit():
+    t = _tiny_texture()
+    basis = np.array([[0.25, 0.0], [0.0, 0.25]])
+    arr = arrange(t, (2.0, 1.0), _colours(t), ArrangeSettings(iterations=1, tileable=True),
+                  lattice=basis)
+    assert arr.kept == "lattice" and arr.result is None
+    assert np.array_equal(arr.lattice, basis)
+    steps = np.array([[dx, dy] for _, dx, dy in arr.svg_placements]) / 0.25
+    assert np.allclose(steps, np.round(steps))  # every copy moved by whole cells
+    assert len(arr.placements) < len(arr.svg_placements)  # tileable: the wrapped copies apart
+    c = np.array([(arr.textons.mu[0, k]).tolist() for k in range(len(arr.background),
+                                                                  arr.textons.num_textons)])
+    assert c.min() >= -1e-9 and c[:, 0].max() < 2.0 and c[:, 1].max() < 1.0  # centred on it
+    odd = arrange(t, (2.1, 1.0), _colours(t), ArrangeSettings(iterations=1, tileable=True),
+                  lattice=basis)
+    assert odd.kept != "lattice" and "not a whole number of cells" in odd.notes[0]
+    free = arrange(t, (2.0, 1.0), _colours(t),
+                   ArrangeSettings(iterations=1, tileable=True, lattice=False), lattice=basis)
+    assert free.kept != "lattice" and free.lattice is None

@@ -276,13 +276,23 @@ def _grown(args: argparse.Namespace, model, tex: common.Texture) -> common.Textu
     ``--size H W`` (short side = the canvas's), so the whole picture has textons."""
     from dataclasses import replace
 
-    from neuraltex.texton_synthesis import ArrangeSettings, arrange, texton_colours
+    from neuraltex.texton_synthesis import (
+        ArrangeSettings,
+        arrange,
+        picture_lattice,
+        reconstruction,
+        source_pixels,
+        texton_colours,
+    )
 
     h, w = args.size
     s = min(tex.textons.canvas) / min(h, w)
     decoder = tex.decoder or model
-    colours = texton_colours(decoder, tex.textons, tex.short)
-    arr = arrange(tex.textons, (w * s, h * s), colours, ArrangeSettings(seed=args.seed or 0))
+    recon = reconstruction(decoder, tex.textons, tex.short)
+    colours = texton_colours(decoder, tex.textons, tex.short, recon)
+    pixels = recon if tex.image is None else source_pixels(tex.image, recon.shape[-2:])
+    arr = arrange(tex.textons, (w * s, h * s), colours, ArrangeSettings(seed=args.seed or 0),
+                  lattice=picture_lattice(pixels, tex.short))
     return replace(tex, textons=arr.textons)
 
 

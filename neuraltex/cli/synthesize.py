@@ -101,7 +101,8 @@ def _synthesize(args, decoder, textons, size: tuple[int, int], short: int, label
     from neuraltex.texton_synthesis import ArrangeSettings, synthesize_texture
 
     settings = ArrangeSettings(tileable=args.tileable, seed=args.seed or 0,
-                               iterations=args.iterations, parallel=args.threads >= 2)
+                               iterations=args.iterations, parallel=args.threads >= 2,
+                               lattice=not args.no_lattice)
     bar = tqdm(total=settings.steps, disable=args.quiet, file=sys.stderr, unit="step",
                desc="arranging", dynamic_ncols=True)
 
@@ -117,6 +118,12 @@ def _synthesize(args, decoder, textons, size: tuple[int, int], short: int, label
                                         source)
     finally:
         bar.close()
+    if arr.lattice is not None:  # say so: the user may want the free arrangement instead
+        periods = " and ".join(f"({x * short:.1f}, {y * short:.1f})" for x, y in arr.lattice)
+        print(f"the picture repeats with periods {periods} px: " + (
+            "its cells tiled (--no-lattice: arrange freely)" if arr.kept == "lattice" else
+            ("the tileable canvas is not a whole number of cells" if args.tileable else
+             "no whole cell in the input") + ", arranged freely"), file=sys.stderr)
     return image, arr
 
 
@@ -158,6 +165,10 @@ def add_commands(sub) -> None:
                    help="the output repeats without a seam when tiled")
     p.add_argument("--preview-textons", type=Path, metavar="OUT.svg",
                    help="also write the arranged textons as SVG ellipses")
+    p.add_argument("--no-lattice", action="store_true",
+                   help="arrange freely even when the picture repeats a tile (by default its "
+                   "lattice is kept: the output is tiled with the input's cells, each from a "
+                   "random whole cell of the input)")
     p.add_argument("--iterations", type=types.integer(1, 50), default=3,
                    help="synthesis iterations (search + assignment) per level (default 3)")
     common.add_source_option(p, "the placed elements bring",
