@@ -119,7 +119,8 @@ def _synthesize(args, decoder, textons, size: tuple[int, int], short: int, label
     finally:
         bar.close()
     if arr.lattice is not None:  # say so: the user may want the free arrangement instead
-        periods = " and ".join(f"({x * short:.1f}, {y * short:.1f})" for x, y in arr.lattice)
+        px = [[round(float(v) * short, 1) + 0.0 for v in a] for a in arr.lattice]  # no -0.0
+        periods = " and ".join(f"({x:.1f}, {y:.1f})" for x, y in px)
         print(f"the picture repeats with periods {periods} px: " + (
             "its cells tiled (--no-lattice: arrange freely)" if arr.kept == "lattice" else
             ("the tileable canvas is not a whole number of cells" if args.tileable else
