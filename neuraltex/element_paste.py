@@ -148,14 +148,19 @@ def paste(ground: Tensor, pieces: list[Cutout | None], placed: list[tuple[int, i
 
 
 def fill_gaps(pasted: Pasted, recon: Tensor, ground: Tensor, tileable: bool = False,
-              reach: int = REACH, feather: float = FEATHER) -> Tensor:
+              reach: int = REACH, feather: float = FEATHER,
+              period: np.ndarray | None = None) -> Tensor:
     """The pasted picture with what the pastes leave uncovered (1 - cover) taken from the
     reconstruction around the nearest pasted pixel, as if that paste's cutout reached
     further: output pixel x, nearest pasted pixel q (copied from s(q)), copies s(q) + x - q
     (the ground and neighbours next to the element in the input), mirrored back into the
     reconstruction where it falls outside. Where q is more than ``reach`` px away,
     ``ground`` (3, H, W) stays. The joins between copies of different offsets are blurred by
-    ``2 feather`` (around the wrap too when ``tileable``). -> (3, H, W)."""
+    ``2 feather`` (around the wrap too when ``tileable``). ``period``: (2, 2) rows, whole-pixel
+    (y, x) periods under which the reconstruction repeats exactly
+    (:func:`neuraltex.raster_lattice.repeats_exactly`): copies whose offsets differ by one
+    of them copy the same pixels, so they meet without a join, and a source pixel outside the
+    reconstruction is brought back by whole periods instead of mirrored. -> (3, H, W)."""
     from scipy.ndimage import binary_dilation, distance_transform_edt
 
     H, W = pasted.cover.shape
@@ -169,7 +174,8 @@ def fill_gaps(pasted: Pasted, recon: Tensor, ground: Tensor, tileable: bool = Fa
     ys, xs = np.mgrid[0:H, 0:W]
     src = pasted.source[iy % H, ix % W] + np.stack([ys - iy, xs - ix], -1)  # (H, W, 2)
     h, w = recon.shape[-2:]
-    sy, sx = _mirror(src[..., 0], h), _mirror(src[..., 1], w)
+    inside = None if period is None else _into_picture(src, period, h, w)
+    sy, sx = inside if inside is not None else (_mirror(src[..., 0], h), _mirror(src[..., 1], w))
     ok = dist <= reach
     fill = ground.clone()
     fill[:, torch.from_numpy(ok)] = recon[:, torch.from_numpy(sy[ok]), torch.from_numpy(sx[ok])]
@@ -182,6 +188,9 @@ def fill_gaps(pasted: Pasted, recon: Tensor, ground: Tensor, tileable: bool = Fa
             both = ok[last] & np.roll(ok, -1, axis)[last]
             nxt[last + (axis,)] -= np.where(both, (H, W)[axis], 0)
         step = (shift != nxt).any(-1)  # a join between copies of different offsets
+        if period is not None:  # ... unless they differ by a period of the picture
+            both = ok & np.roll(ok, -1, axis)
+            step &= ~(both & _on_lattice(shift - nxt, period))
         if not tileable:  # the last row (column) has no next one
             step[last] = False
         seam |= step | np.roll(step, 1, axis)
@@ -189,6 +198,31 @@ def fill_gaps(pasted: Pasted, recon: Tensor, ground: Tensor, tileable: bool = Fa
     soft = blur(fill, feather * 2, "circular" if tileable else "replicate")
     fill = torch.where(seam, soft, fill)
     return pasted.image + (1 - pasted.cover) * (fill - ground)
+
+
+def _into_picture(src: np.ndarray, period: np.ndarray, h: int,
+                  w: int) -> tuple[np.ndarray, np.ndarray] | None:
+    """(y, x) indices (...,) of the positions ``src`` (..., 2) moved by whole periods (rows of
+    ``period`` (2, 2)) into one cell that lies in the (h, w) picture; None when no cell near
+    the origin does."""
+    cell = np.array([[0, 0], period[0], period[1], period[0] + period[1]], float)  # corners
+    for i, j in sorted(((i, j) for i in range(-3, 4) for j in range(-3, 4)),
+                       key=lambda ij: abs(ij[0]) + abs(ij[1])):
+        t = i * period[0] + j * period[1]
+        c = cell + t
+        if c[:, 0].min() >= 0 and c[:, 0].max() <= h and c[:, 1].min() >= 0 and c[:, 1].max() <= w:
+            break
+    else:
+        return None
+    k = np.floor(src @ np.linalg.inv(period.astype(float)) + 1e-9)  # whole periods to remove
+    rep = np.rint(src - k @ period + t).astype(np.int64)
+    return np.clip(rep[..., 0], 0, h - 1), np.clip(rep[..., 1], 0, w - 1)
+
+
+def _on_lattice(d: np.ndarray, period: np.ndarray) -> np.ndarray:
+    """Whether each offset (..., 2) is a whole combination of the rows of ``period`` (2, 2)."""
+    c = d @ np.linalg.inv(period.astype(float))  # (..., 2) lattice coordinates
+    return (np.abs(c - np.rint(c)) < 1e-6).all(-1)
 
 
 def _mirror(i: np.ndarray, n: int) -> np.ndarray:

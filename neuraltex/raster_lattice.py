@@ -129,3 +129,22 @@ def _reduced(basis: np.ndarray) -> np.ndarray:
         if b @ b >= a @ a:
             return np.stack([a, b]) + 0.0  # no negative zeros
         a, b = b, a
+
+
+def repeats_exactly(image: np.ndarray, basis: np.ndarray, tol: float = 1e-6) -> bool:
+    """Whether the picture (H, W, C) equals itself shifted by each period of ``basis`` (2, 2),
+    rows (x, y) in pixels, over the overlap: whole-pixel periods of a tile repeated to the
+    pixel, under which copies of the picture continue each other."""
+    if not np.allclose(basis, np.round(basis), atol=1e-9):
+        return False
+    h, w = image.shape[:2]
+    for dx, dy in np.round(basis).astype(int):
+        if dy < 0:
+            dx, dy = -dx, -dy
+        if abs(dx) >= w or dy >= h:
+            return False
+        a = image[dy:, max(dx, 0):w + min(dx, 0)]
+        b = image[:h - dy, max(-dx, 0):w - max(dx, 0)]
+        if np.abs(a.astype(np.float64) - b).max() > tol:
+            return False
+    return True

@@ -96,6 +96,8 @@ class Arrangement:
     result: object = None  # cvt's SynthesisResult (timings, energies); None on a lattice
     kept: str = "alone"  # how the elements were arranged: "groups", "alone" or "lattice"
     lattice: np.ndarray | None = None  # (2, 2) the input's periods (normalized units), if any
+    # (2, 2) whole-pixel (y, x) periods under which the pasted picture repeats exactly, if any
+    period: np.ndarray | None = None
     decoded: Tensor | None = None  # (3, H, W) the decode of the arranged textons
 
 
@@ -453,12 +455,13 @@ def steady_background(textons: Textons, background: Tensor, plain: int, short: i
 def paste_arranged(textons: Textons, rows: Tensor, groups: list[list[int]],
                    placements: list[tuple[int, float, float]], pixels: Tensor,
                    labels: np.ndarray, short: int, ground: Tensor,
-                   tileable: bool = False) -> Tensor:
+                   tileable: bool = False, period: np.ndarray | None = None) -> Tensor:
     """``ground`` (3, H, W) with every placement (element, dx, dy) of the elements ``groups``
     (positions into ``rows`` (E,), texton indices of the input ``textons``) drawn from
     ``pixels`` (3, h, w: the reconstruction, or the source picture at its size) under its
     footprint in ``labels`` (h, w: texton of each pixel) (:mod:`neuraltex.element_paste`),
-    bottom to top in the input's draw order. -> (3, H, W) in [0, 1]."""
+    bottom to top in the input's draw order. ``period``: :func:`exact_period` of ``pixels``.
+    -> (3, H, W) in [0, 1]."""
     from neuraltex.element_paste import (
         cutouts,
         element_rank,
@@ -472,7 +475,8 @@ def paste_arranged(textons: Textons, rows: Tensor, groups: list[list[int]],
     rank = element_rank(textons.order[0].cpu().numpy(), rows, groups)
     placed = pixel_placements(placements, rank, short)
     pasted = paste(ground.cpu(), pieces, placed, tileable)
-    return fill_gaps(pasted, pixels, ground.cpu(), tileable).clamp(0, 1).to(ground)
+    return fill_gaps(pasted, pixels, ground.cpu(), tileable,
+                     period=period).clamp(0, 1).to(ground)
 
 
 def synthesize_texture(decoder, textons: Textons, short: int, size: tuple[int, int],
@@ -498,10 +502,23 @@ def synthesize_texture(decoder, textons: Textons, short: int, size: tuple[int, i
     arr = arrange(steady, canvas, colours, settings, on_iteration, plain, lattice)
     image = decode_arranged(decoder, arr.textons, size, settings.tileable, len(arr.background))
     arr.decoded = image
+    arr.period = None if lattice is None else exact_period(pixels, lattice, short)
     if labels is not None:
         image = paste_arranged(textons, arr.rows, arr.groups, arr.placements, pixels, labels,
-                               short, image, settings.tileable)
+                               short, image, settings.tileable, arr.period)
     return image, arr
+
+
+def exact_period(picture: Tensor, lattice: np.ndarray, short: int) -> np.ndarray | None:
+    """The ``lattice`` (2, 2) rows, normalized units) in whole pixels of ``picture`` (3, H, W)
+    at ``short`` px per unit, rows (y, x), when the picture repeats exactly under it
+    (:func:`neuraltex.raster_lattice.repeats_exactly`: a tile repeated to the pixel, whose
+    copies meet without a join); else None. Shape: -> (2, 2)."""
+    from neuraltex.raster_lattice import repeats_exactly
+
+    basis = lattice * short  # (x, y) rows, pixels
+    hwc = picture.detach().permute(1, 2, 0).cpu().numpy()
+    return np.round(basis[:, ::-1]).astype(int) if repeats_exactly(hwc, basis) else None
 
 
 def source_pixels(source: Tensor, size: tuple[int, int]) -> Tensor:

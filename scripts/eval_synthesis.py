@@ -99,7 +99,7 @@ def outputs(model, tex, image: np.ndarray, size, seed: int) -> tuple[dict, float
                               background=len(back))
         if tex.labels is not None:
             out = paste_arranged(textons, arr.rows, groups, placed, pixels, tex.labels,
-                                 tex.short, out)
+                                 tex.short, out, period=arr.period)
         return out
 
     kept = arr.kept

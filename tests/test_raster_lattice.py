@@ -93,3 +93,16 @@ def test_reduction_keeps_the_lattice_and_makes_it_short():
     assert _same_lattice(basis, np.array([[32.0, 0], [16, 24]]))
     assert np.linalg.norm(basis[1]) <= np.linalg.norm(basis[1] - basis[0])
     assert np.linalg.norm(basis[1]) <= np.linalg.norm(basis[1] + basis[0])
+
+
+def test_repeats_exactly_only_under_whole_periods_of_an_exact_tile():
+    from neuraltex.raster_lattice import repeats_exactly
+
+    pic = np.tile(_tile(20, 24), (4, 4, 1))
+    basis = raster_lattice(pic)
+    assert repeats_exactly(pic, basis)
+    assert repeats_exactly(pic, np.array([[24.0, 20.0], [-24.0, 20.0]]))  # a sublattice too
+    assert not repeats_exactly(pic, np.array([[24.0, 0.0], [0.0, 21.0]]))
+    assert not repeats_exactly(pic, np.array([[24.5, 0.0], [0.0, 20.0]]))  # not whole pixels
+    noisy = pic + np.random.default_rng(1).normal(0, 0.01, pic.shape)
+    assert raster_lattice(noisy) is not None and not repeats_exactly(noisy, basis)

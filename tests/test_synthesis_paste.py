@@ -141,3 +141,26 @@ def test_the_wrap_is_no_join_of_the_fill():
     for dy, dx in ((-9, 0), (0, -10), (-9, -10), (6, 21)):  # across a wrap or two
         moved = torch.roll(base, (dy, dx), (-2, -1))
         assert torch.allclose(filled(dy, dx), moved, atol=1e-5), (dy, dx)
+
+
+def test_copies_a_period_apart_continue_an_exactly_periodic_picture():
+    """A 12 x 10 tile repeated 2 x 3 times, one element per tile: pasted at offsets that differ
+    by whole periods with gaps between them, the fill with the period continues the tile
+    exactly (no blurred joins, no mirroring at the picture's border); without it, it does
+    not."""
+    g = torch.Generator().manual_seed(1)
+    tile = torch.rand(3, 12, 10, generator=g)
+    recon = tile.repeat(1, 2, 3)  # (3, 24, 30)
+    labels = np.zeros((24, 30), np.int64)
+    labels[3:6, 2:5] = 1  # the element: a 3 x 3 patch of the first tile
+    pieces = cutouts(recon, labels, np.array([1]), [[0]], K=2, margin=0, feather=0.35)
+    placed = [(0, 12 * i, 10 * j) for i in range(-1, 5) for j in range(-1, 7)]
+    ground = torch.zeros(3, 48, 60)
+    period = np.array([[12, 0], [0, 10]])
+    exact = fill_gaps(paste(ground, pieces, placed), recon, ground, period=period)
+    assert torch.allclose(exact, tile.repeat(1, 4, 6), atol=1e-6)
+    plain = fill_gaps(paste(ground, pieces, placed), recon, ground)
+    assert float((plain - tile.repeat(1, 4, 6)).abs().max()) > 0.1
+    tiled = fill_gaps(paste(ground, pieces, placed, tileable=True), recon, ground, tileable=True,
+                      period=period)
+    assert torch.allclose(tiled, tile.repeat(1, 4, 6), atol=1e-6)
