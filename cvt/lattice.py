@@ -10,6 +10,10 @@ lattice is accepted only when it also predicts the exemplar: copies of the repre
 centred on the canvas exist in it, and every fragment cut by the border is part of such a copy.
 With one period only (stripes whose elements span the canvas), the canvas side across it is the
 second. Irregular exemplars fail these tests and go to the seed's method.
+
+:func:`cell_copies` takes a lattice found elsewhere (neuraltex finds it on the picture of a
+texture, whose element kinds are too fine to repeat exactly) and tiles the output with its
+cells, each copied from a random whole cell of the exemplar.
 """
 
 from __future__ import annotations

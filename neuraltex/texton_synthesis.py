@@ -8,7 +8,10 @@
    the uniform regions of its Gaussians; appearance attributes A(s) = the group's size kind
    (one-hot) and its mean colour in the reconstruction), and cvt's pattern pipeline (seed 000:
    search / assignment, then the canvas and density repair; wrapped around for ``tileable``)
-   arranges them on the larger canvas.
+   arranges them on the larger canvas. A picture that repeats a tile
+   (:mod:`neuraltex.raster_lattice`) keeps its lattice instead: the output is tiled with its
+   cells, each copying the textons centred in a random whole cell of the input
+   (:func:`cvt.lattice.cell_copies`, :func:`lattice_arrangement`).
 3. The output textons are built **from the input textons by index**: each placement copies the
    textons of its group (every per-texton field travels with them: f, sprites, colour
    offsets, v, existence) and moves mu; the background layer is re-centred and stretched over
