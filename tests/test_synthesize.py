@@ -333,3 +333,17 @@ def test_lattice_arrangement_copies_whole_cells_and_falls_back_when_they_do_not_
     free = arrange(t, (2.0, 1.0), _colours(t),
                    ArrangeSettings(iterations=1, tileable=True, lattice=False), lattice=basis)
     assert free.kept != "lattice" and free.lattice is None
+
+
+def test_a_tileable_lattice_needs_whole_cells_and_the_message_says_which_size(tmp_path, capsys):
+    tile = (generate(2, 0, (16, 20)).image * 255).round().astype(np.uint8)
+    Image.fromarray(np.tile(tile, (3, 3, 1))).save(tmp_path / "tiled.png")
+    run = ["synthesize", str(tmp_path / "tiled.png"), "--quiet", "--iterations", "1",
+           "--tileable"]
+    assert main([*run, "-o", str(tmp_path / "odd.png"), "--size", "50", "70"]) == 0
+    err = capsys.readouterr().err
+    assert "not a whole number of cells (--size 48 80 is), arranged freely" in err
+    assert main([*run, "-o", str(tmp_path / "whole.png"), "--size", "48", "80"]) == 0
+    assert "its cells tiled" in capsys.readouterr().err
+    out = np.asarray(Image.open(tmp_path / "whole.png"), float)
+    assert np.abs(out - np.tile(tile, (3, 4, 1))).max() < 0.5  # the tile, wrapping exactly

@@ -123,9 +123,28 @@ def _synthesize(args, decoder, textons, size: tuple[int, int], short: int, label
         periods = " and ".join(f"({x:.1f}, {y:.1f})" for x, y in px)
         print(f"the picture repeats with periods {periods} px: " + (
             "its cells tiled (--no-lattice: arrange freely)" if arr.kept == "lattice" else
-            ("the tileable canvas is not a whole number of cells" if args.tileable else
-             "no whole cell in the input") + ", arranged freely"), file=sys.stderr)
+            ("the tileable canvas is not a whole number of cells" + _whole_size(arr, size, short)
+             if args.tileable else "no whole cell in the input") + ", arranged freely"),
+            file=sys.stderr)
     return image, arr
+
+
+def _whole_size(arr, size: tuple[int, int], short: int) -> str:
+    """' (--size H W is)': the nearest tileable size of whole cells of the arrangement's
+    lattice (cvt.lattice.axis_periods), or '' when its periods along the axes are not whole
+    pixels to 0.05 px (or there are none)."""
+    import numpy as np
+
+    from cvt.lattice import Lattice, axis_periods
+
+    got = axis_periods(Lattice(arr.lattice[0], arr.lattice[1], np.zeros(0, int), 1.0))
+    if got is None:
+        return ""
+    period = got[1][::-1] * short  # (H, W) px
+    if not np.allclose(period, np.round(period), atol=0.05):
+        return ""
+    h, w = (int(max(1, round(n / p)) * round(p)) for n, p in zip(size, period, strict=True))
+    return f" (--size {h} {w} is)"
 
 
 def _check_svg(path: Path) -> None:
