@@ -157,7 +157,16 @@ def tileable_seam(tex, image: np.ndarray, size, seeds: list[int]) -> dict:
            "tiling_seam": base.seam(base.tiling(image, size)), "lines": lines, "cut": cut,
            "tile": tiles[0]}
     out["ratios"] = line_ratios(out)
+    out["input"] = input_wrap(image)
     return out
+
+
+def input_wrap(image: np.ndarray) -> dict[str, float]:
+    """cvt's seam / interior of the input picture's own wrap, per measure: the reference for
+    an input that repeats a tile, whose lattice output wraps at a tile border (a border with
+    grout lines, or a tile that is not quite seamless, reads high on the input too)."""
+    lines = [cvt_seam.lines_of(image, cvt_seam.MEASURES)]
+    return {m: float(cvt_seam.own_seams(lines, m)[0]) for m in cvt_seam.MEASURES}
 
 
 def line_ratios(tile: dict, rolls: int = 2000, measures=tuple(cvt_seam.MEASURES)
@@ -171,8 +180,8 @@ def line_ratios(tile: dict, rolls: int = 2000, measures=tuple(cvt_seam.MEASURES)
 
 def row_text(name: str, size, sc: dict, seconds: float, rep_in: float, kept: str) -> str:
     cells = " ".join(f"{sc[m]['swd']:7.3f} {sc[m]['gram']:6.4f}" for m in METHODS)
-    return (f"{name:12s} {size[0]}x{size[1]:<4d} {cells}   rep in/tile/ours/quilt {rep_in:.2f}/"
-            f"{sc['tiling']['rep']:.2f}/{sc['ours']['rep']:.2f}/{sc['quilting']['rep']:.2f}"
+    return (f"{name:12s} {size[0]}x{size[1]:<4d} {cells}   rep in/tile/ours/quilt {rep_in:.3f}/"
+            f"{sc['tiling']['rep']:.3f}/{sc['ours']['rep']:.3f}/{sc['quilting']['rep']:.3f}"
             f"  {seconds:5.1f} s  {kept:7s}")
 
 
@@ -256,7 +265,10 @@ def seam_text(tile: dict) -> str:
     return (f"  seam {tile['seam']:.2f} swd wrap/in {tile['seam_swd']:.1f}/"
             f"{tile['inner_swd']:.1f} interior lines {tile['inner_lines'].min():.1f}-"
             f"{tile['inner_lines'].max():.1f} wrap above {tile['rank']}/{SEAM_LINES - 1}"
-            f"\n    lines (cvt.seam): {cvt}")
+            f"\n    lines (cvt.seam): {cvt}"
+            + ("; the input's own wrap: " + ", ".join(f"{m} {v:.2f}" for m, v in
+                                                      tile["input"].items())
+               if "input" in tile else ""))
 
 
 def gallery(rows: list[tuple[np.ndarray, dict]], path: Path) -> None:

@@ -101,3 +101,18 @@ def test_cvt_line_measures_pass_seamless_tiles_and_flag_cut_ones():
         t["ratios"] = eval_synthesis.line_ratios(t, rolls=200, measures=(step,))
     text = eval_synthesis._pooled_lines([whole, cut], step)
     assert "within 1.1 on 1/2 textures" in text
+
+
+def test_the_inputs_own_wrap_is_read_by_the_same_line_statistics():
+    """A picture of whole periods wraps seamlessly; one cut from a longer period does not, and
+    the reference says so (eval_synthesis --seam-only prints it beside ours)."""
+    import eval_synthesis
+
+    whole = eval_synthesis.input_wrap(_field(True))
+    cut = eval_synthesis.input_wrap(_field(False))
+    assert set(whole) == {"colour step", "patch SWD"}
+    assert whole["colour step"] <= 1.1 < cut["colour step"]
+    text = eval_synthesis.seam_text({"seam": 1.0, "seam_swd": 0.1, "inner_swd": 0.1,
+                                     "inner_lines": np.array([0.1, 0.2]), "rank": 1,
+                                     "ratios": {}, "input": whole})
+    assert f"colour step {whole['colour step']:.2f}" in text.split("the input's own wrap: ")[1]
