@@ -4,6 +4,7 @@ cvt/cli_curves.py)."""
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import math
 import sys
@@ -227,6 +228,8 @@ def cmd_synthesize(args) -> int:
                          debug / f"level{state.level}_iter{state.iteration}.png")
 
     opts = _pattern_options(args, box)
+    if image is not None and image.lattice is not None:
+        opts = dataclasses.replace(opts, basis=image.lattice)
     try:
         pattern = synthesize_pattern(ex, size, cfg, args.method, opts, on_iteration)
     finally:
@@ -267,7 +270,7 @@ def _pattern_options(args, box):
 
 def _from_image(args):
     """Vectorize --from-image into an exemplar (and write it to --exemplar-out)."""
-    from cvt.from_textons import image_exemplar, vectorize_image
+    from cvt.from_textons import image_exemplar, vectorize_picture
     from neuraltex.model import DEFAULT_MODEL
 
     checkpoint = args.checkpoint
@@ -276,8 +279,13 @@ def _from_image(args):
             raise InputError("no default texton model is shipped yet; pass --checkpoint "
                              "MODEL.safetensors or --segmenter felzenszwalb")
         checkpoint = DEFAULT_MODEL
-    svg = vectorize_image(args.from_image, args.segmenter, checkpoint, max_side=args.max_side)
+    svg, picture = vectorize_picture(args.from_image, args.segmenter, checkpoint,
+                                     max_side=args.max_side)
     image = image_exemplar(svg)  # --exemplar-out is written with the output (write_outputs)
+    if not args.no_lattice:  # a picture that repeats a tile keeps its lattice
+        from neuraltex.raster_lattice import raster_lattice
+
+        image.lattice = raster_lattice(picture)
     if not args.quiet:
         print(f"vectorized {args.from_image}: {len(image.exemplar.elements)} elements",
               file=sys.stderr)

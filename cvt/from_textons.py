@@ -23,6 +23,8 @@ class ImageExemplar:
     exemplar: Exemplar  # texton elements only, with .appearance (one-hot kinds)
     backdrop: str  # fill colour of the background layer ("#rrggbb")
     svg: str  # the vectorized image (background included)
+    # (2, 2) rows a, b: the picture's lattice in SVG units (neuraltex.raster_lattice), or None
+    lattice: np.ndarray | None = None
 
 
 def vectorize_image(image_path, segmenter: str = "model", checkpoint=None, source: str = "masks",
@@ -30,6 +32,15 @@ def vectorize_image(image_path, segmenter: str = "model", checkpoint=None, sourc
     """SVG text of a raster image, or of a texture file (.ntex: its fitted segments coloured by
     its tuned reconstruction; ``checkpoint`` is then its base model) (``neuraltex vectorize``
     as a function)."""
+    return vectorize_picture(image_path, segmenter, checkpoint, source, max_side, kinds,
+                             device)[0]
+
+
+def vectorize_picture(image_path, segmenter: str = "model", checkpoint=None,
+                      source: str = "masks", max_side: int = 256, kinds: int = 4,
+                      device: str = "cpu") -> tuple[str, np.ndarray]:
+    """(:func:`vectorize_image`'s SVG, the picture it vectorized (H, W, 3) in [0, 1], one
+    pixel per SVG user unit)."""
     from pathlib import Path
 
     from neuraltex.imageio import load_image
@@ -51,7 +62,8 @@ def vectorize_image(image_path, segmenter: str = "model", checkpoint=None, sourc
         image = load_image(image_path, max_side=max_side).to(device)
         seg, _ = segment_image(image, segmenter, model, source)
     params = VectorizeParams(kinds=kinds)
-    return to_svg(vectorize(image.permute(1, 2, 0).cpu().numpy(), seg, params), seg, params.seam)
+    picture = image.permute(1, 2, 0).cpu().numpy()
+    return to_svg(vectorize(picture, seg, params), seg, params.seam), picture
 
 
 def image_exemplar(svg: str) -> ImageExemplar:

@@ -36,6 +36,7 @@ from cvt.lattice import (
     AXIS_CELLS,
     Lattice,
     axis_periods,
+    cell_copies,
     detect_lattice,
     lattice_copies,
 )
@@ -58,6 +59,11 @@ class PatternOptions:
     # the density repair then adds and removes single elements, not composites. None: kinds
     # from the markup (cvt.kinds.element_kinds).
     kinds: np.ndarray | None = None
+    # A lattice found by the caller, rows a, b in exemplar units (e.g. on the picture an
+    # exemplar was vectorized from: neuraltex.raster_lattice), whose elements' kinds are too
+    # fine to repeat exactly: its cells are tiled (cvt.lattice.cell_copies) instead of
+    # detect_lattice's motifs. None: detect the lattice on the elements.
+    basis: np.ndarray | None = None
 
 
 @dataclass
@@ -84,6 +90,10 @@ def synthesize_pattern(ex: Exemplar, size: tuple[float, float], cfg: SynthesisCo
     if method == "random":
         res = run_method(method, ex, size, cfg)
         return Pattern(_placed(res), size, notes, res)
+    if opts.lattice and opts.basis is not None and opts.domain is None:
+        cells = _cell_pattern(ex, size, opts, boxes, cut, cfg.seed, notes)
+        if cells is not None:
+            return cells
     lat = _lattice(ex, boxes, cut, kinds) if opts.lattice else None
     if lat is not None:
         notes.append(f"lattice: periods ({lat.a[0]:.4g}, {lat.a[1]:.4g}) and ({lat.b[0]:.4g}, "
@@ -108,6 +118,30 @@ def synthesize_pattern(ex: Exemplar, size: tuple[float, float], cfg: SynthesisCo
     if torus is not None:
         placed = wrap_around(placed, boxes, out_box)
     return Pattern(placed, size, notes, res, lat)
+
+
+def _cell_pattern(ex, size, opts: PatternOptions, boxes, cut, seed: int,
+                  notes: list[str]) -> Pattern | None:
+    """The output tiled with the cells of the caller's lattice ``opts.basis``, each copying the
+    whole elements centred in a random whole cell of the exemplar (cvt.lattice.cell_copies);
+    tileable: the size snapped to whole periods first (:func:`_lattice_tile`). None when the
+    exemplar holds no whole cell."""
+    a, b = np.asarray(opts.basis, float)
+    lat = Lattice(a, b, np.zeros(0, int), 1.0)
+    if opts.tileable:
+        lat, size = _lattice_tile(lat, size, notes)
+    vx, vy, w, h = ex.viewbox
+    whole = np.nonzero(~cut)[0]
+    centers = (boxes[whole, :2] + boxes[whole, 2:]) / 2
+    copies = cell_copies(np.stack([lat.a, lat.b]), centers, boxes[whole], (vx, vy, vx + w, vy + h),
+                         (vx, vy, vx + size[0], vy + size[1]), np.random.default_rng(seed),
+                         size if opts.tileable else None)
+    if copies is None:
+        notes.append("lattice of the picture: no whole cell in the exemplar; arranged freely")
+        return None
+    notes.append(f"lattice of the picture: periods ({lat.a[0]:.4g}, {lat.a[1]:.4g}) and "
+                 f"({lat.b[0]:.4g}, {lat.b[1]:.4g}); each cell copied from a random whole cell")
+    return Pattern([(int(whole[e]), dx, dy) for e, dx, dy in copies], size, notes, None, lat)
 
 
 def _lattice(ex, boxes, cut, kinds) -> Lattice | None:

@@ -114,3 +114,63 @@ def test_gaussian_init_copies_whole_elements_without_stacking():
     assert torch.equal(full[inner], have[inner])  # whole elements, never cut by patch borders
     centres = torch.stack([out.pos[out.cluster == c].mean(0) for c in out.cluster.unique()])
     assert torch.pdist(centres).min() > 1.0  # no two copies stacked on one centre
+
+
+def _tiled_discs(path, tile: int = 16, reps: int = 4) -> np.ndarray:
+    """A tile with a red and a blue disc on grey, repeated reps x reps times."""
+    yy, xx = np.mgrid[0:tile, 0:tile] + 0.5
+    t = np.full((tile, tile, 3), 0.45)
+    t[(xx - 5) ** 2 + (yy - 5) ** 2 < 9] = (0.9, 0.2, 0.1)
+    t[(xx - 11) ** 2 + (yy - 11) ** 2 < 6] = (0.1, 0.3, 0.9)
+    pic = np.tile(t, (reps, reps, 1))
+    Image.fromarray((pic * 255).astype(np.uint8)).save(path)
+    return pic
+
+
+def _colourful(element) -> bool:
+    fill = next(n.get("fill") for n in element.node.iter() if n.get("fill"))
+    rgb = [int(fill[i:i + 2], 16) for i in (1, 3, 5)] if fill.startswith("#") else [0, 0, 0]
+    return max(rgb) - min(rgb) > 100
+
+
+def test_from_image_of_a_tiled_picture_keeps_its_lattice(tmp_path, capsys):
+    """The picture's lattice (neuraltex.raster_lattice) reaches cvt: the output is tiled with
+    its cells (cvt.lattice.cell_copies), so every disc of the output sits one period from
+    another; --no-lattice runs the seed's method instead."""
+    _tiled_discs(tmp_path / "in.png")
+    out = tmp_path / "out.svg"
+    base = ["synthesize", "--from-image", str(tmp_path / "in.png"), "--segmenter",
+            "felzenszwalb", "--scale", "2", "--levels", "1", "--iterations", "1"]
+    assert main([*base, "-o", str(out)]) == 0
+    err = capsys.readouterr().err
+    assert "lattice of the picture: periods" in err
+    result = parse_svg(out.read_bytes())
+    assert result.viewbox == (0, 0, 128, 128)
+    centres = np.array([(e.bbox[:2] + e.bbox[2:]) / 2 for e in result.elements
+                        if _colourful(e)])  # the discs (the grey ground's pieces vary by cell)
+    inner = centres[(centres > 20).all(1) & (centres < 108).all(1)]
+    assert len(inner) >= 40  # about two discs a cell
+    for c in inner:  # the disc one period to the right is there: the grid is kept
+        assert np.min(np.linalg.norm(centres - (c + [16, 0]), axis=1)) < 0.5
+    assert main([*base, "-o", str(tmp_path / "free.svg"), "--no-lattice", "--method",
+                 "no-clustering"]) == 0
+    assert "lattice of the picture" not in capsys.readouterr().err
+
+
+def test_a_given_lattice_tiles_cells_and_snaps_a_tileable_size():
+    from cvt.pattern import PatternOptions, synthesize_pattern
+
+    doc = ('<svg xmlns="http://www.w3.org/2000/svg" viewBox="0 0 40 40">'
+           + "".join(f'<circle cx="{5 + 10 * i}" cy="{5 + 10 * j}" r="2"/>'
+                     for i in range(4) for j in range(4)) + "</svg>").encode()
+    ex = parse_svg(doc)
+    opts = PatternOptions(basis=np.array([[10.0, 0.0], [0.0, 10.0]]), tileable=True)
+    pattern = synthesize_pattern(ex, (63.0, 50.0), SynthesisConfig(levels=1, iterations=1),
+                                 "no-clustering", opts)
+    assert pattern.size == (60.0, 50.0)  # snapped to whole periods
+    assert any("snapped" in n for n in pattern.notes)
+    assert any("lattice of the picture" in n for n in pattern.notes)
+    c = np.array([(ex.elements[e].bbox[:2] + ex.elements[e].bbox[2:]) / 2 + [dx, dy]
+                  for e, dx, dy in pattern.placements])
+    on = c[(c[:, 0] > 0) & (c[:, 0] < 60) & (c[:, 1] > 0) & (c[:, 1] < 50)]
+    assert len(on) == 30 and len(np.unique(on.round(6), axis=0)) == 30  # one per cell
