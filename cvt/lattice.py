@@ -39,6 +39,13 @@ class Lattice:
     reps: np.ndarray  # (R,) element indices, one per motif of the cell, in z order
     explained: float  # share of the exemplar the lattice predicts
 
+    @classmethod
+    def given(cls, basis: np.ndarray) -> Lattice:
+        """A lattice found elsewhere (rows a, b of ``basis`` (2, 2)), with no motifs of its own:
+        for :func:`axis_periods` and :func:`cell_copies`."""
+        a, b = np.asarray(basis, float)
+        return cls(a, b, np.zeros(0, int), 1.0)
+
 
 def _on_canvas(centers: np.ndarray, viewbox, margin: float) -> np.ndarray:
     """Centres at least ``margin`` inside the canvas. Shape: (N, 2) -> (N,) bool."""
@@ -206,6 +213,11 @@ def axis_periods(lat: Lattice) -> tuple[Lattice, np.ndarray] | None:
     period = np.array([v[steps[0], 0], v[steps[1], 1]])
     a, b = np.linalg.solve(n, np.diag(period))  # rows: the basis with those vectors exact
     return Lattice(a, b, lat.reps, lat.explained), period
+
+
+def whole_periods(size, period) -> tuple[float, ...]:
+    """``size`` moved to the nearest whole number (at least one) of ``period`` per axis."""
+    return tuple(float(max(1, round(s / p)) * p) for s, p in zip(size, period, strict=True))
 
 
 def _explained(lat: Lattice, centers, kinds, boxes, whole, viewbox, tol) -> float:

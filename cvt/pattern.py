@@ -39,6 +39,7 @@ from cvt.lattice import (
     cell_copies,
     detect_lattice,
     lattice_copies,
+    whole_periods,
 )
 from cvt.reconstruction import Placement
 from cvt.svg import Exemplar, to_svg
@@ -126,8 +127,7 @@ def _cell_pattern(ex, size, opts: PatternOptions, boxes, cut, seed: int,
     whole elements centred in a random whole cell of the exemplar (cvt.lattice.cell_copies);
     tileable: the size snapped to whole periods first (:func:`_lattice_tile`). None when the
     exemplar holds no whole cell."""
-    a, b = np.asarray(opts.basis, float)
-    lat = Lattice(a, b, np.zeros(0, int), 1.0)
+    lat = Lattice.given(opts.basis)
     if opts.tileable:
         lat, size = _lattice_tile(lat, size, notes)
     vx, vy, w, h = ex.viewbox
@@ -162,7 +162,7 @@ def _lattice_tile(lat: Lattice, size, notes) -> tuple[Lattice, tuple[float, floa
                          f"{lat.a[1]:.4g}) and ({lat.b[0]:.4g}, {lat.b[1]:.4g})) repeats along "
                          f"no canvas axis within {AXIS_CELLS} cells; use --no-lattice")
     lat, period = fit
-    snapped = tuple(float(max(1, round(s / p)) * p) for s, p in zip(size, period, strict=True))
+    snapped = whole_periods(size, period)
     if not np.allclose(snapped, size, rtol=1e-9, atol=0):
         notes.append(f"tileable lattice: output size {size[0]:.6g} x {size[1]:.6g} snapped to "
                      f"{snapped[0]:.6g} x {snapped[1]:.6g} (whole periods {period[0]:.6g} x "

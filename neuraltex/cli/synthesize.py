@@ -135,15 +135,15 @@ def _whole_size(arr, size: tuple[int, int], short: int) -> str:
     pixels to 0.05 px (or there are none)."""
     import numpy as np
 
-    from cvt.lattice import Lattice, axis_periods
+    from cvt.lattice import Lattice, axis_periods, whole_periods
 
-    got = axis_periods(Lattice(arr.lattice[0], arr.lattice[1], np.zeros(0, int), 1.0))
+    got = axis_periods(Lattice.given(arr.lattice))
     if got is None:
         return ""
     period = got[1][::-1] * short  # (H, W) px
     if not np.allclose(period, np.round(period), atol=0.05):
         return ""
-    h, w = (int(max(1, round(n / p)) * round(p)) for n, p in zip(size, period, strict=True))
+    h, w = (int(v) for v in whole_periods(size, np.round(period)))
     return f" (--size {h} {w} is)"
 
 
