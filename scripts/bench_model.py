@@ -9,7 +9,8 @@ default_segmenter, ``full`` = experiment=default, eq. 4.24; see scripts/profile_
 what 64 / 128 px mean) of the code in OLD_TREE (e.g. a checkout of main before the speed-ups)
 and of this tree in the same run: child processes alternate old, new, old, new ... for
 ``--rounds`` rounds of ``--round-steps`` steps each (after one warm-up step per process), one
-torch thread each; the medians of the per-step wall times (batch generation included) and
+torch thread each; the median over rounds of each round's mean step time (wall, batch
+generation included: a round of a multiple of k steps holds whole periods of a lazy term) and
 their ratio are printed, for wall time and for the training process's CPU time (steadier on a
 busy shared machine; a data worker's CPU is not in it). Interleaving keeps the machine's load
 out of the ratios as far as it can. ``--layout shipped`` runs each tree with the torch threads
@@ -121,19 +122,18 @@ def recipe_step_times(root: str, recipe: str, size: int, batch: int, steps: int,
     parts = build(cfg, torch.device("cpu"))
     data = batches(build_dataset(cfg.data, 1000 * batch), batch, 0, 0, 1,
                    cfg.data.num_workers)
-    settings = step_settings(parts, cfg)
     times = []
     for step in range(1, steps + 2):  # odd first step: the warm-up skips the lazy R1
         t0, c0 = time.perf_counter(), time.process_time()
         g = torch.Generator().manual_seed(step)
         images, labels = _batch(next(data), cfg, parts, g)
-        train_step(parts, images, labels, settings, step, g)
+        train_step(parts, images, labels, step_settings(parts, cfg, step), step, g)
         times.append((time.perf_counter() - t0, time.process_time() - c0))
     return times[1:]
 
 
 def compare(old: str, recipe: str, size: int, args) -> dict[str, tuple[float, float]]:
-    """{"old": ..., "new": ...}: median (wall, CPU) seconds per step of the old tree and this
+    """{"old": ..., "new": ...}: (wall, CPU) seconds per step of the old tree and this
     one, child processes interleaved. CPU = the training process's own CPU time (a data
     worker's is not in it), the steadier number on a shared machine."""
     runs: dict[str, list] = {"old": [], "new": []}
@@ -142,7 +142,8 @@ def compare(old: str, recipe: str, size: int, args) -> dict[str, tuple[float, fl
             cmd = [sys.executable, str(HERE / "bench_model.py"), "--child", root, "--recipes",
                    recipe, "--sizes", str(size), "--batch", str(args.batch), "--steps",
                    str(args.round_steps), "--layout", args.layout,
-                   *(["--set", *args.set] if args.set else [])]
+                   *(["--set", *sets] if (sets := args.set + (
+                       args.set_new if name == "new" else [])) else [])]
             env = {**os.environ, "PYTHONPATH": root}
             if args.layout == "one-thread":
                 env.update(OMP_NUM_THREADS="1", MKL_NUM_THREADS="1")
@@ -152,7 +153,9 @@ def compare(old: str, recipe: str, size: int, args) -> dict[str, tuple[float, fl
             line = json.loads(out.stdout.strip().splitlines()[-1])
             if line["root"] != root:
                 raise SystemExit(f"bench child imported {line['root']}, not {root}")
-            runs[name] += line["times"]
+            times = line["times"]  # the round's mean: whole periods of any lazy term
+            runs[name].append((statistics.mean(w for w, _ in times),
+                               statistics.mean(c for _, c in times)))
     return {k: (statistics.median(w for w, _ in v), statistics.median(c for _, c in v))
             for k, v in runs.items()}
 
@@ -172,9 +175,15 @@ def main() -> None:
     ap.add_argument("--recipes", default="segmenter,full",
                     help="with --compare: comma list of segmenter, full")
     ap.add_argument("--rounds", type=int, default=3, help="with --compare: old/new rounds")
-    ap.add_argument("--round-steps", type=int, default=2, help="with --compare: steps a round")
+    ap.add_argument("--round-steps", type=int, default=2,
+                    help="with --compare: steps a round (a multiple of any lazy term's k "
+                    "in --set, e.g. loss.equivariance_every=4, so that each round holds "
+                    "whole periods)")
     ap.add_argument("--set", nargs="*", default=[],
                     help="with --compare: extra Hydra overrides for both trees, key=value")
+    ap.add_argument("--set-new", nargs="*", default=[],
+                    help="with --compare: extra Hydra overrides for this tree only (settings "
+                    "the old tree does not have, e.g. loss.equivariance_every=4)")
     ap.add_argument("--layout", choices=("one-thread", "shipped"), default="one-thread",
                     help="with --compare: one-thread = 1 torch thread in both trees (compute "
                     "per core); shipped = each tree's own recipe layout (its trainer.threads "
@@ -194,7 +203,8 @@ def main() -> None:
         layout = ("1 torch thread per process" if args.layout == "one-thread" else
                   "each tree's shipped threads and data workers")
         print(f"torch {torch.__version__}, {layout}, CPU; batch {args.batch}; "
-              f"median s/step over {args.rounds} x {args.round_steps} steps, interleaved")
+              f"s/step: the median over {args.rounds} rounds of each round's mean over "
+              f"{args.round_steps} steps, interleaved")
         print("| recipe | old wall s/step | new wall s/step | speed-up (wall) | old CPU s/step "
               "| new CPU s/step | speed-up (CPU) |\n|---|---:|---:|---:|---:|---:|---:|")
         for recipe in args.recipes.split(","):

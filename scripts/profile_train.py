@@ -144,10 +144,11 @@ def exclusive_times(prof, labels: set[str]) -> dict[str, float]:
     return out
 
 
-def step_settings(parts, cfg):
-    """The settings of a step past every warm-up that the trainer does not log (no full
-    diagnostics; trees before they were optional compute them on every step)."""
-    settings = parts.loss.at(10_000, cfg.trainer.schedule_scale)
+def step_settings(parts, cfg, step: int = 0):
+    """The settings of step 10,000 + ``step``, past every warm-up, as the trainer sets them on
+    a step it does not log (no full diagnostics; trees before they were optional compute them
+    on every step). Lazy terms (``loss.*_every``) fall on every k-th ``step``."""
+    settings = parts.loss.at(10_000 + step, cfg.trainer.schedule_scale)
     if hasattr(settings, "diagnostics"):
         settings = replace(settings, diagnostics=False)
     return settings
@@ -166,12 +167,11 @@ def profile(recipe: str, size: int, batch: int, steps: int, extra: list[str],
     label_parts(parts, stack)
     dataset = build_dataset(cfg.data, 1000 * batch)
     data = batches(dataset, batch, 0, 0, 1, cfg.data.num_workers)
-    settings = step_settings(parts, cfg)
-    one_step(parts, cfg, data, 1, settings)  # warm-up (odd step: no lazy R1)
+    one_step(parts, cfg, data, 1, step_settings(parts, cfg, 1))  # warm-up (odd: no lazy R1)
     with stack, torch.profiler.profile(activities=[torch.profiler.ProfilerActivity.CPU]) as prof:
         t0 = time.perf_counter()
         for s in range(steps):
-            one_step(parts, cfg, data, s + 2, settings)
+            one_step(parts, cfg, data, s + 2, step_settings(parts, cfg, s + 2))
         wall = (time.perf_counter() - t0) / steps
     times = exclusive_times(prof, LABELS)
     return {k: v / steps for k, v in times.items()}, wall

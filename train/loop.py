@@ -143,7 +143,8 @@ def train_step(parts: Parts, images: torch.Tensor, labels: torch.Tensor | None,
         parts.critics.requires_grad_(True)
         with torch.autocast(**autocast):
             reshuffled = None if out.reshuffled is None else out.reshuffled.detach()
-            d_loss, d_logs = parts.crit_step(images, out.recon.detach(), reshuffled, step, g)
+            d_loss, d_logs = parts.crit_step(images, out.recon.detach(), reshuffled, step, g,
+                                             settings.reshuffle)
         parts.opt_d.zero_grad(set_to_none=True)
         d_loss.backward()
         parts.opt_d.step()

@@ -32,6 +32,10 @@ class StepSettings:
     existence: str = "sample"  # "all" during loss.existence_warmup (every delta = 1)
     segmenter_only: bool = False  # loss.segmenter_warmup: only E_s learns the given masks
     diagnostics: bool = True  # all diag/* numbers (the trainer: only on steps it logs)
+    # Lazy terms: the weight of the reshuffle terms (texture, patch GAN, D_p) and of the
+    # equivariance terms (csis, L'_R) at this step: every k-th step k, else 0 (not computed)
+    reshuffle: float = 1.0
+    equivariance: float = 1.0
 
     def scalars(self) -> dict[str, float]:
         """The weights and the patch size, for the log (``w/<name>``)."""
@@ -61,6 +65,10 @@ class LossConfig:
     mask_points: int | None = None  # pixels per image the mask loss samples; None: all
     equivariance: bool = True
     reshuffle: bool = True
+    # Lazy terms (as lazy R1, StyleGAN2): computed on every k-th step only, weighted by k, so
+    # the expected loss is unchanged and a step skips a decode (and an encode) most of the time
+    equivariance_every: int = 1
+    reshuffle_every: int = 1
     gan: bool = True
     csis_reduce: str = "sum"  # sum (eq. 4.22) | mean over matched pairs
     csis_lambda: ConsistencyWeights = field(default_factory=ConsistencyWeights)
@@ -69,6 +77,10 @@ class LossConfig:
         if self.mask_supervision not in ("none", "gt", "pseudo"):
             raise ValueError(f"loss.mask_supervision must be none, gt or pseudo, "
                              f"got {self.mask_supervision!r}")
+        for name in ("equivariance_every", "reshuffle_every", "r1_every"):
+            if int(getattr(self, name)) < (0 if name == "r1_every" else 1):
+                raise ValueError(f"loss.{name} must be a positive whole number of steps, "
+                                 f"got {getattr(self, name)!r}")
         if self.csis_reduce not in ("sum", "mean"):
             raise ValueError(f"loss.csis_reduce must be sum or mean, got {self.csis_reduce!r}")
 
@@ -95,4 +107,12 @@ class LossConfig:
             patch_size=int(scheduled(self.patch_size, step, scale)),
             existence="all" if step < self.existence_warmup * scale else "sample",
             segmenter_only=step < self.segmenter_warmup * scale,
+            reshuffle=_lazy(self.reshuffle_every, step),
+            equivariance=_lazy(self.equivariance_every, step),
         )
+
+
+def _lazy(every: int, step: int) -> float:
+    """The weight of a term computed every ``every`` steps: ``every`` on the steps that end
+    a period (so a run's logged steps, multiples of its log interval, carry it), else 0."""
+    return float(every) if (step + 1) % every == 0 else 0.0

@@ -75,23 +75,23 @@ class GeneratorObjective(nn.Module):
             logs["gan"] = g_nonsaturating_loss(self.critics.image(recon))
             total = total + w.gan * logs["gan"]
         reshuffled = None
-        if opt.reshuffle:
+        if opt.reshuffle and w.reshuffle:
             h = max(1, images.shape[0] // 2)  # N/2 reshuffled images (7.7.2)
             area = enc.masks[:h].flatten(2).sum(-1)
             zs = soft_reshuffle(z[:h], gamma=opt.reshuffle_gamma, area=area, generator=g)
             reshuffled = model.decode(zs, size)
             logs["texture"] = sliced_wasserstein_patches(reshuffled, images[:h],
                                                          patch=w.patch_size, generator=g)
-            total = total + w.texture * logs["texture"]
+            total = total + w.reshuffle * w.texture * logs["texture"]
             if opt.gan:
                 ref = self.critics.crops(images[:h], g)
                 fake = self.critics.crops(reshuffled, g)
                 logs["pgan"] = g_nonsaturating_loss(self.critics.patch(ref, fake))
-                total = total + w.pgan * logs["pgan"]
-        if opt.equivariance:
+                total = total + w.reshuffle * w.pgan * logs["pgan"]
+        if opt.equivariance and w.equivariance:
             csis, recon_t = self._equivariance(images, enc, w.existence, g)
             logs["csis"], logs["recon_t"] = csis, recon_t
-            total = total + w.csis * csis + recon_t
+            total = total + w.equivariance * (w.csis * csis + recon_t)
         if opt.mask_supervision != "none" and labels is not None:
             logs["mask"] = mask_supervision_loss(enc.masks, labels, opt.mask_points, g)
             total = total + w.mask * logs["mask"]
@@ -155,25 +155,29 @@ class CriticObjective(nn.Module):
         return random_crops(images, self.crop_size, self.patch.num_crops, generator=g)
 
     def forward(self, images: Tensor, recon: Tensor, reshuffled: Tensor | None, step: int,
-                g: torch.Generator) -> tuple[Tensor, dict[str, float]]:
+                g: torch.Generator, dp_weight: float = 1.0) -> tuple[Tensor, dict[str, float]]:
+        """D's loss, D_p's on ``reshuffled`` (weighted by ``dp_weight``: the lazy reshuffle's
+        k; none on a step without a reshuffle), and every ``r1_every`` steps the lazy R1."""
         opt = self.loss
         logs = {"d": d_logistic_loss(self.image(images), self.image(recon.detach()))}
         total = logs["d"]
+        h = max(1, images.shape[0] // 2) if reshuffled is None else reshuffled.shape[0]
         real_ref = real = None
         if reshuffled is not None:
-            h = reshuffled.shape[0]
             real_ref = self.crops(images[:h], g)
             real = self.crops(images[:h], g)
             fake = self.crops(reshuffled.detach(), g)
             logs["dp"] = d_logistic_loss(self.patch(real_ref, real), self.patch(real_ref, fake))
-            total = total + logs["dp"]
+            total = total + dp_weight * logs["dp"]
         k = opt.r1_every
         if k and step % k == 0:
             # Lazy R1 (StyleGAN2): every k steps, weighted by gamma / 2 * k.
             x = images.detach().requires_grad_(True)
             logs["r1"] = d_r1_loss(self.image(x), x)
             total = total + opt.r1_gamma_d / 2 * k * logs["r1"]
-            if real is not None:
+            if opt.reshuffle:
+                if real is None:  # a step of the lazy reshuffle without one: crops of its own
+                    real_ref, real = self.crops(images[:h], g), self.crops(images[:h], g)
                 xr = real.detach().requires_grad_(True)
                 logs["r1_p"] = d_r1_loss(self.patch(real_ref, xr), xr)
                 total = total + opt.r1_gamma_dp / 2 * k * logs["r1_p"]
