@@ -232,3 +232,16 @@ def test_bfloat16_autocast_on_cpu(tmp_path):
     """trainer.amp on CPU: the estimation runs in float32 (no bfloat16 LU), the step is finite."""
     logs = run(_cfg(tmp_path, "trainer.max_steps=1", "trainer.amp=true", "trainer.export=null"))
     assert all(torch.isfinite(torch.tensor(v)) for v in logs.values())
+
+
+def test_building_on_cpu_flushes_subnormal_floats(tmp_path):
+    """Subnormal floats (softmax masks reach 1e-40) cost ~100x a normal one on x86: the trainer
+    flushes them to zero (docs/training_speed.md)."""
+    from train.setup import build
+
+    if not torch.set_flush_denormal(False):
+        pytest.skip("this CPU cannot flush subnormal floats")
+    tiny = torch.tensor([1e-39], dtype=torch.float64)
+    assert float(tiny.float() * 1.0) != 0.0
+    build(_cfg(tmp_path), torch.device("cpu"))
+    assert float(tiny.float() * 1.0) == 0.0
