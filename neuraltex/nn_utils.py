@@ -44,6 +44,15 @@ def shrink_short_side(x: torch.Tensor, short: int) -> torch.Tensor:
     return resize(x, (max(1, round(H * s)), max(1, round(W * s))))
 
 
+def flush_subnormals(device: torch.device | str) -> None:
+    """On a CPU, flush subnormal floats (below 1.2e-38) to zero, for this process's threads
+    from now on: x86 computes with them about 100x slower, and the softmax masks of 100
+    queries are full of them (the equivariance matching's mask distances: 0.22 s a 64 px
+    training step instead of 0.03 s; ``neuraltex fit`` 1.15x, the same pictures)."""
+    if torch.device(device).type == "cpu":
+        torch.set_flush_denormal(True)
+
+
 def count_parameters(module: nn.Module, trainable_only: bool = True) -> int:
     """Number of (trainable) scalar parameters of ``module``."""
     return sum(p.numel() for p in module.parameters() if p.requires_grad or not trainable_only)

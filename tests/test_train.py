@@ -236,7 +236,7 @@ def test_bfloat16_autocast_on_cpu(tmp_path):
 
 def test_building_on_cpu_flushes_subnormal_floats(tmp_path):
     """Subnormal floats (softmax masks reach 1e-40) cost ~100x a normal one on x86: the trainer
-    flushes them to zero (docs/training_speed.md)."""
+    and the CLI flush them to zero (docs/training_speed.md)."""
     from train.setup import build
 
     if not torch.set_flush_denormal(False):
@@ -244,4 +244,9 @@ def test_building_on_cpu_flushes_subnormal_floats(tmp_path):
     tiny = torch.tensor([1e-39], dtype=torch.float64)
     assert float(tiny.float() * 1.0) != 0.0
     build(_cfg(tmp_path), torch.device("cpu"))
+    assert float(tiny.float() * 1.0) == 0.0
+    torch.set_flush_denormal(False)  # and every command that loads the model
+    from neuraltex.cli import common
+
+    common.load(None)
     assert float(tiny.float() * 1.0) == 0.0

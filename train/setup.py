@@ -14,6 +14,7 @@ from neuraltex.checkpoint import load_exported_model, load_training_checkpoint, 
 from neuraltex.errors import InputError
 from neuraltex.model import TextonAutoencoder, build_model
 from neuraltex.model_config import ModelConfig
+from neuraltex.nn_utils import flush_subnormals
 from train.loss_config import LossConfig
 from train.objective import CriticObjective, GeneratorObjective
 
@@ -55,11 +56,7 @@ def build(cfg: DictConfig, device: torch.device, world: int = 1) -> Parts:
     """Model, critics, objectives and Adam optimizers as configured (``trainer.freeze`` parts
     get no gradient); DDP-wrapped step modules when ``world`` > 1."""
     T, mcfg, loss = cfg.trainer, model_config(cfg), loss_config(cfg)
-    if device.type == "cpu":
-        # Subnormal floats run ~100x slower on x86: the softmax masks of 100 queries reach
-        # 1e-40, and the equivariance matching's mask distances (a (100 x 4098) @ (4098 x 100)
-        # product per image) took 0.22 s a 64 px step instead of 0.03 s. Flushed to zero
-        torch.set_flush_denormal(True)
+    flush_subnormals(device)
     model, image_critic, patch_critic = build_model(mcfg, with_critics=True)
     critics = CriticObjective(image_critic, patch_critic, loss, mcfg.image_size).to(device)
     gen = GeneratorObjective(model, critics, loss).to(device)

@@ -36,6 +36,7 @@ def load(checkpoint: str | Path | None, device: str = "cpu",
     import torch
 
     from neuraltex.model import DEFAULT_MODEL, load_model
+    from neuraltex.nn_utils import flush_subnormals
 
     problem = types.device_problem(str(device))
     if problem:  # commands whose --device is not parsed by args.device
@@ -46,6 +47,7 @@ def load(checkpoint: str | Path | None, device: str = "cpu",
                          "(python -m train writes one)")
     if seed is not None:
         torch.manual_seed(seed)
+    flush_subnormals(device)
     return load_model(path, device=device)
 
 
