@@ -76,7 +76,7 @@ class GeneratorObjective(nn.Module):
             total = total + w.gan * logs["gan"]
         reshuffled = None
         if opt.reshuffle and w.reshuffle:
-            h = max(1, images.shape[0] // 2)  # N/2 reshuffled images (7.7.2)
+            h = reshuffled_count(images.shape[0])
             area = enc.masks[:h].flatten(2).sum(-1)
             zs = soft_reshuffle(z[:h], gamma=opt.reshuffle_gamma, area=area, generator=g)
             reshuffled = model.decode(zs, size)
@@ -161,7 +161,7 @@ class CriticObjective(nn.Module):
         opt = self.loss
         logs = {"d": d_logistic_loss(self.image(images), self.image(recon.detach()))}
         total = logs["d"]
-        h = max(1, images.shape[0] // 2) if reshuffled is None else reshuffled.shape[0]
+        h = reshuffled_count(images.shape[0])
         real_ref = real = None
         if reshuffled is not None:
             real_ref = self.crops(images[:h], g)
@@ -182,6 +182,12 @@ class CriticObjective(nn.Module):
                 logs["r1_p"] = d_r1_loss(self.patch(real_ref, xr), xr)
                 total = total + opt.r1_gamma_dp / 2 * k * logs["r1_p"]
         return total, {k: float(v.detach()) for k, v in logs.items()}
+
+
+def reshuffled_count(batch: int) -> int:
+    """How many images of a batch are reshuffled (N/2, appendix 7.7.2): the generator's
+    reshuffle and the patch critic's crops of real images for them."""
+    return max(1, batch // 2)
 
 
 @torch.no_grad()
