@@ -7,10 +7,11 @@ Seed 003, section 4.3.3:
     F_s(p)   = sum_i a_i(p) concat(f_i, v_i)                       eq. 4.14
     F_max(p) = max_i o_i(p)                                        (4.3.4.1)
 
-:func:`splat` is the fast path: a custom autograd function that walks the pixels in chunks and
-recomputes opacities in the backward pass, so memory stays at O(B*K*chunk) besides the output
-(never B x K x H x W x C). :func:`splat_reference` is the plain autograd version it is tested
-against. Both accept any output size and window (see :mod:`neuraltex.coords`).
+:func:`splat` is the fast path: a custom autograd function that walks the pixels in chunks,
+keeps the opacities for the backward pass while they are small (a training batch) and
+recomputes them otherwise, so memory stays bounded (never B x K x H x W x C).
+:func:`splat_reference` is the plain autograd version it is tested against. Both accept any
+output size and window (see :mod:`neuraltex.coords`).
 """
 
 from __future__ import annotations
@@ -29,6 +30,12 @@ _MIN_DET = 1e-14
 # Without a cut-off, a texton is skipped on a tile where M^2 > 30 everywhere: its opacity there
 # is below exp(-30) ~ 1e-13, far under float32 resolution, so the result is the same.
 _SKIP_M2 = 30.0
+# exp(-M^2) is evaluated at M^2 <= 87 (exp(-87) = 1.6e-38, the smallest normal floats).
+_EXP_M2 = 87.0
+# The chunked function keeps the forward's opacities for the backward pass when the
+# (tiles, K, pixels) tensors hold at most this many elements (2 x 64 MB in float32), and
+# recomputes them chunk by chunk above it.
+_KEEP_ELEMENTS = 1 << 24
 # Elements per (tiles, K, pixels) working tensor in the chunked function (~8 MB in float32).
 _CHUNK_ELEMENTS = 1 << 21
 # Tiles per image at most (the tile side grows with the image to respect it).
@@ -48,8 +55,8 @@ def splat(textons: Textons, size: tuple[int, int], *, window: Window | None = No
     release uses 3). Differentiable w.r.t. mu, cov, delta, f and v.
 
     The image is cut into square tiles; each tile composites only the textons whose ellipse
-    (at M^2 = cutoff^2, or 30 without a cut-off) reaches it, in draw order. Opacities are
-    recomputed in the backward pass instead of stored.
+    (at M^2 = cutoff^2, or 30 without a cut-off) reaches it, in draw order. Opacities are kept
+    for the backward pass up to _KEEP_ELEMENTS and recomputed in it above that.
     """
     mu, prec, delta, feats, (H, W), window = _prepare(textons, size, window)
     B, K, C = feats.shape
@@ -225,15 +232,17 @@ def _mahalanobis(mu: Tensor, prec: Tensor, grid: Tensor) -> tuple[Tensor, Tensor
     dx = grid[..., 0].unsqueeze(-2) - mu[..., 0:1]
     dy = grid[..., 1].unsqueeze(-2) - mu[..., 1:2]
     p00, p01, p11 = (prec[..., i:i + 1] for i in range(3))
-    m2 = p00 * dx * dx + 2 * p01 * dx * dy + p11 * dy * dy
-    return m2, dx, dy
+    m2 = dx * torch.addcmul(p00 * dx, 2 * p01, dy)  # dx (p00 dx + 2 p01 dy) + p11 dy^2
+    return m2.addcmul_(p11 * dy, dy), dx, dy
 
 
 def _gaussian(mu: Tensor, prec: Tensor, grid: Tensor, cutoff: float | None):
-    """exp(-M^2) (eq. 4.12 without delta), zero beyond the cut-off, with M^2 and the offsets
-    the backward pass needs. Returns g, m2, dx, dy, each (N, K, P)."""
+    """exp(-M^2) (eq. 4.12 without delta), zero beyond the cut-off, with M^2 and the offsets.
+    Returns g, m2, dx, dy, each (N, K, P)."""
     m2, dx, dy = _mahalanobis(mu, prec, grid)
-    g = torch.exp(-m2)
+    # exp of arguments below -87 (results under the smallest normal float) takes a slow path
+    # on x86, 15-35x slower; most (texton, pixel) pairs of a tile are that far.
+    g = torch.exp(-m2.clamp_max(_EXP_M2))
     if cutoff is not None:
         g = g * (m2 <= cutoff * cutoff)
     return g, m2, dx, dy
@@ -247,13 +256,23 @@ def _opacity(mu: Tensor, prec: Tensor, delta: Tensor, grid: Tensor,
 
 def _transmittance(o: Tensor) -> Tensor:
     """prod_{j<k}(1 - o_j) along K for front-to-back sorted opacities (eq. 4.13). (B, K, P)."""
-    T = torch.cumprod(1 - o, dim=1)
-    return torch.cat([torch.ones_like(T[:, :1]), T[:, :-1]], dim=1)
+    if o.requires_grad:  # the plain-autograd path (splat_reference)
+        T = torch.cumprod(1 - o, dim=1)
+        return torch.cat([torch.ones_like(T[:, :1]), T[:, :-1]], dim=1)
+    # The same products in the same order, one slice at a time: 3.5x faster than cumprod
+    # along a middle dimension on CPU.
+    T, q = torch.empty_like(o), 1 - o
+    T[:, :1] = 1
+    for k in range(1, o.shape[1]):
+        torch.mul(T[:, k - 1], q[:, k - 1], out=T[:, k])
+    return T
 
 
 class _SplatFunction(torch.autograd.Function):
     """Eqs. 4.11-4.14 over N independent (textons, pixels) items, e.g. image tiles, walked in
-    chunks of items, with a hand-written backward that recomputes opacities.
+    chunks of items, with a hand-written backward. The backward reuses the forward's
+    Gaussians and transmittances when they are small enough to keep (_KEEP_ELEMENTS) and
+    recomputes them chunk by chunk otherwise.
 
     mu (N, K, 2), prec (N, K, 3), delta (N, K), feats (N, K, C), grid (N, P, 2)
     -> out (N, C, P), fmax (N, P).
@@ -266,11 +285,18 @@ class _SplatFunction(torch.autograd.Function):
         P = grid.shape[1]
         out = feats.new_empty(N, C, P)
         fmax = feats.new_zeros(N, P)
+        keep = any(ctx.needs_input_grad[:4]) and N * K * P <= _KEEP_ELEMENTS
+        ctx.kept = [] if keep else None
         for s in range(0, N, chunk):
             e = s + chunk
-            o = _opacity(mu[s:e], prec[s:e], delta[s:e], grid[s:e], cutoff)  # (n, K, P)
-            torch.bmm(feats[s:e].transpose(1, 2), o * _transmittance(o), out=out[s:e])
-            if K:
+            g = _gaussian(mu[s:e], prec[s:e], grid[s:e], cutoff)[0]
+            o = delta[s:e].unsqueeze(-1) * g                               # (n, K, P)
+            T = _transmittance(o)
+            torch.bmm(feats[s:e].transpose(1, 2), o * T, out=out[s:e])
+            if K and keep:
+                fmax[s:e], top = o.max(dim=1)
+                ctx.kept.append((g, T, top))
+            elif K:
                 fmax[s:e] = o.amax(dim=1)
         ctx.save_for_backward(mu, prec, delta, feats, grid)
         ctx.cutoff, ctx.chunk = cutoff, chunk
@@ -287,18 +313,23 @@ class _SplatFunction(torch.autograd.Function):
             return g_mu, g_prec, g_delta, g_feats, None, None, None
         if g_out is None:
             g_out = feats.new_zeros(feats.shape[0], feats.shape[2], grid.shape[1])
-        for s in range(0, feats.shape[0], chunk):
+        for c, s in enumerate(range(0, feats.shape[0], chunk)):
             e = s + chunk
             pr = prec[s:e]
-            g = _gaussian(mu[s:e], pr, grid[s:e], cutoff)[0]
-            o = delta[s:e].unsqueeze(-1) * g
-            T = _transmittance(o)
+            if ctx.kept:  # the forward's Gaussians, transmittances and front-most textons
+                g, T, top = ctx.kept[c]
+                o = delta[s:e].unsqueeze(-1) * g
+            else:
+                g = _gaussian(mu[s:e], pr, grid[s:e], cutoff)[0]
+                o = delta[s:e].unsqueeze(-1) * g
+                T = _transmittance(o)
+                top = o.max(dim=1).indices if g_fmax is not None else None
             go = g_out[s:e]                                  # (n, C, P)
             g_feats[s:e] = (o * T) @ go.transpose(1, 2)      # (n, K, C)
             g_alpha = feats[s:e] @ go                        # (n, K, P): dL/da_k
             g_o = T * (g_alpha - _behind(g_alpha, o))        # dL/do_k through eq. 4.13
             if g_fmax is not None:
-                g_o.scatter_add_(1, o.argmax(dim=1, keepdim=True), g_fmax[s:e].unsqueeze(1))
+                g_o.scatter_add_(1, top.unsqueeze(1), g_fmax[s:e].unsqueeze(1))
             g_delta[s:e] = (g_o * g).sum(-1)
             g_m2 = -g_o * o                                  # d o / d M^2 = -o
             sx, sy, sxx, sxy, syy = _offset_moments(g_m2, mu[s:e], grid[s:e])

@@ -74,7 +74,16 @@ def test_reversing_draw_order_changes_only_the_overlap():
 
 
 @pytest.mark.parametrize("cutoff", [None, 2.0])
-def test_fast_path_matches_reference_forward_and_backward(cutoff):
+@pytest.mark.parametrize("keep", [True, False], ids=["kept", "recomputed"])
+@pytest.mark.parametrize("chunk_elements", [1 << 21, 600], ids=["one-chunk", "chunks"])
+def test_fast_path_matches_reference_forward_and_backward(cutoff, keep, chunk_elements,
+                                                          monkeypatch):
+    """Both backward paths (the forward's opacities kept, or recomputed chunk by chunk)
+    give the reference's values and gradients."""
+    import neuraltex.splatting as sp
+
+    monkeypatch.setattr(sp, "_KEEP_ELEMENTS", 1 << 24 if keep else 0)
+    monkeypatch.setattr(sp, "_CHUNK_ELEMENTS", chunk_elements)
     t = make_textons(B=2, K=9, C=5, dtype=torch.float64, seed=3, scale=0.08)
     leaves = {k: getattr(t, k).requires_grad_(True) for k in ("mu", "cov", "f", "v", "delta")}
     size = (23, 37)  # odd, non-square: tiles overhang the border
