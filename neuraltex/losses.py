@@ -11,6 +11,7 @@ import torch.nn.functional as F
 from torch import Tensor, nn
 
 from neuraltex.coords import pixel_grid
+from neuraltex.nn_utils import sort_last
 from neuraltex.perceptual import LPIPS, Backbone
 
 
@@ -72,9 +73,8 @@ def sliced_wasserstein_patches(x: Tensor, y: Tensor, patch: int = 2, projections
         D = px.shape[1]
         dirs = torch.randn(D, projections, generator=generator).to(x)
         dirs = dirs / dirs.norm(dim=0, keepdim=True)
-        # projections (B, M, L), sorted along the contiguous last dim (~1.4x faster on CPU)
-        qx = torch.sort(dirs.T @ px, dim=-1).values
-        qy = torch.sort(dirs.T @ py, dim=-1).values
+        # projections (B, M, L), sorted along the contiguous last dim
+        qx, qy = sort_last(dirs.T @ px), sort_last(dirs.T @ py)
         if qy.shape[-1] != qx.shape[-1]:  # compare quantiles when patch counts differ
             qy = F.interpolate(qy, size=qx.shape[-1], mode="linear", align_corners=True)
         total = total + (qx - qy).square().mean()

@@ -44,6 +44,23 @@ def shrink_short_side(x: torch.Tensor, short: int) -> torch.Tensor:
     return resize(x, (max(1, round(H * s)), max(1, round(W * s))))
 
 
+def sort_last(x: torch.Tensor) -> torch.Tensor:
+    """``x`` sorted along its last dimension; differentiable (the gradient follows the
+    permutation), like ``torch.sort(x, -1).values``.
+
+    On CPU the order comes from numpy (x86-simd-sort): its argsort of a (4, 64, 3481)
+    float32 array takes 7.5 ms and its sort 1.9 ms against torch.sort's 38 ms, the texture
+    loss's bulk. Ties may be permuted differently, which changes no value and only which of
+    the tied entries a gradient reaches. Other devices use torch.sort."""
+    if x.device.type != "cpu" or not x.is_floating_point() or x.dim() == 0:
+        return torch.sort(x, dim=-1).values
+    flat = x.detach()
+    flat = (flat if flat.dtype in (torch.float32, torch.float64) else flat.float()).numpy()
+    if not x.requires_grad:
+        return torch.from_numpy(np.sort(flat, axis=-1)).to(x.dtype)
+    return x.gather(-1, torch.from_numpy(np.argsort(flat, axis=-1)))
+
+
 def flush_subnormals(device: torch.device | str) -> None:
     """On a CPU, flush subnormal floats (below 1.2e-38) to zero, for this process's threads
     from now on: x86 computes with them about 100x slower, and the softmax masks of 100

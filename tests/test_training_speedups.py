@@ -9,7 +9,7 @@ import torch.nn.functional as F
 
 from neuraltex.model import build_model, load_model
 from neuraltex.model_config import ModelConfig
-from neuraltex.nn_utils import resize, upsample_crop_resize
+from neuraltex.nn_utils import resize, sort_last, upsample_crop_resize
 from neuraltex.query_grid import adapt_queries, grid_shape, resample_queries
 from neuraltex.segmentation import SegmentationNet
 from train.mask_supervision import mask_supervision_loss
@@ -35,6 +35,26 @@ def test_upsample_crop_resize_equals_the_chain_forward_and_backward(shapes):
     assert torch.allclose(gf, gr, atol=1e-12)
     with pytest.raises(ValueError):
         upsample_crop_resize(x, (2, 2), (2, 2), (2, 2))
+
+
+@pytest.mark.parametrize("dtype", [torch.float32, torch.float64, torch.bfloat16])
+def test_sort_last_equals_torch_sort_values_and_gradients(dtype):
+    """numpy's order on CPU: the values of torch.sort, and (without ties) its gradients."""
+    g = torch.Generator().manual_seed(0)
+    x = torch.randn(3, 5, 301, generator=g).to(dtype)
+    w = torch.randn(3, 5, 301, generator=g).to(dtype)
+    strided = x.transpose(0, 1)  # a non-contiguous view sorts the same
+    assert torch.equal(sort_last(strided), torch.sort(strided, dim=-1).values)
+    out = sort_last(x)
+    assert out.dtype == dtype and torch.equal(out, torch.sort(x, dim=-1).values)
+    grads = []
+    for fn in (sort_last, lambda t: torch.sort(t, dim=-1).values):
+        leaf = x.clone().requires_grad_(True)
+        (fn(leaf) * w).sum().backward()
+        grads.append(leaf.grad)
+    if dtype != torch.bfloat16:  # bfloat16's 256 levels tie; ties may take either order
+        assert torch.equal(grads[0], grads[1])
+    assert torch.equal(grads[0].sort(-1).values, grads[1].sort(-1).values)
 
 
 def test_segmenter_out_size_equals_resizing_its_full_size_logits(tiny):
