@@ -105,10 +105,12 @@ def latency(preset: str, size: int) -> float:
 
 
 def recipe_step_times(root: str, recipe: str, size: int, batch: int, steps: int,
-                      extra: list[str], shipped: bool = False) -> list[float]:
+                      extra: list[str], shipped: bool = False,
+                      init: str | None = None) -> list[float]:
     """Wall seconds of ``steps`` training steps of a shipped recipe, built by the trainer code
     and configs of the tree ``root`` (this process's import path), after one warm-up step;
-    ``shipped``: with the torch threads the tree's recipe sets (else 1)."""
+    ``shipped``: with the torch threads the tree's recipe sets (else 1); ``init``: weights
+    loaded with the tree's own ``train.setup.init_from`` (else the recipe's random init)."""
     sys.path.insert(0, str(HERE))
     from profile_train import compose, step_settings
 
@@ -120,6 +122,10 @@ def recipe_step_times(root: str, recipe: str, size: int, batch: int, steps: int,
     torch.set_num_threads(int(cfg.trainer.threads or os.cpu_count()))
     torch.manual_seed(0)
     parts = build(cfg, torch.device("cpu"))
+    if init:
+        from train.setup import init_from
+
+        init_from(parts.model, init, {})
     data = batches(build_dataset(cfg.data, 1000 * batch), batch, 0, 0, 1,
                    cfg.data.num_workers)
     times = []
@@ -142,6 +148,7 @@ def compare(old: str, recipe: str, size: int, args) -> dict[str, tuple[float, fl
             cmd = [sys.executable, str(HERE / "bench_model.py"), "--child", root, "--recipes",
                    recipe, "--sizes", str(size), "--batch", str(args.batch), "--steps",
                    str(args.round_steps), "--layout", args.layout,
+                   *(["--init", args.init] if args.init else []),
                    *(["--set", *sets] if (sets := args.set + (
                        args.set_new if name == "new" else [])) else [])]
             env = {**os.environ, "PYTHONPATH": root}
@@ -188,13 +195,19 @@ def main() -> None:
                     help="with --compare: one-thread = 1 torch thread in both trees (compute "
                     "per core); shipped = each tree's own recipe layout (its trainer.threads "
                     "and data.num_workers), i.e. what a user of each tree got on this machine")
+    ap.add_argument("--init", default=None, metavar="WEIGHTS",
+                    help="with --compare: start each tree's model from these weights, so "
+                    "that the step works on the textons of a trained model rather than of a "
+                    "random one; a relative path is taken inside each tree (e.g. "
+                    "neuraltex/weights/default.safetensors: each tree's own shipped model), "
+                    "an absolute one is loaded by both")
     ap.add_argument("--child", default=None, help=argparse.SUPPRESS)
     args = ap.parse_args()
     if args.compare:
         torch.set_num_threads(1)
     if args.child:
         times = recipe_step_times(args.child, args.recipes, args.sizes[0], args.batch,
-                                  args.steps, args.set, args.layout == "shipped")
+                                  args.steps, args.set, args.layout == "shipped", args.init)
         import train
 
         print(json.dumps({"times": times, "root": str(Path(train.__file__).parents[1])}))
@@ -202,7 +215,8 @@ def main() -> None:
     if args.compare:
         layout = ("1 torch thread per process" if args.layout == "one-thread" else
                   "each tree's shipped threads and data workers")
-        print(f"torch {torch.__version__}, {layout}, CPU; batch {args.batch}; "
+        start = f"weights {args.init}" if args.init else "random init"
+        print(f"torch {torch.__version__}, {layout}, CPU; batch {args.batch}; {start}; "
               f"s/step: the median over {args.rounds} rounds of each round's mean over "
               f"{args.round_steps} steps, interleaved")
         print("| recipe | old wall s/step | new wall s/step | speed-up (wall) | old CPU s/step "
