@@ -159,11 +159,11 @@ class SPADEGenerator(nn.Module):
         if fs[-2:] != fm[-2:] or fs[1] != self.feature_channels or fm[1] != 1:
             raise ValueError(f"bad shapes: F_s {fs}, F_max {fm}")
         sizes = level_sizes(tuple(features.shape[-2:]), self.n_levels)
+        conds = {s: resize(features, s) for s in sizes}  # F_s resized once per level
         x = resize(max_opacity, sizes[0])  # (B, 1, H/4, W/4) for the paper
         if self.concat_features:
-            x = torch.cat((x, resize(features, sizes[0])), dim=1)  # (B, 1 + C_a+2, H/4, W/4)
+            x = torch.cat((x, conds[sizes[0]]), dim=1)  # (B, 1 + C_a+2, H/4, W/4)
         x = self.fc(x)  # (B, channels[0], H/4, W/4)
-        conds = {s: resize(features, s) for s in sizes}  # F_s resized once per level
         for i, block in enumerate(self.blocks):
             size = sizes[min(i, len(sizes) - 1)]
             if tuple(x.shape[-2:]) != size:

@@ -8,7 +8,7 @@
 default_segmenter, ``full`` = experiment=default, eq. 4.24; see scripts/profile_train.py for
 what 64 / 128 px mean) of the code in OLD_TREE (e.g. a checkout of main before the speed-ups)
 and of this tree in the same run: child processes alternate old, new, old, new ... for
-``--rounds`` rounds of ``--round-steps`` steps each (after one warm-up step per process), one
+``--rounds`` rounds of ``--round-steps`` steps each (after ``--warmup`` steps per process), one
 torch thread each; the median over rounds of each round's mean step time (wall, batch
 generation included: a round of a multiple of k steps holds whole periods of a lazy term) and
 their ratio are printed, for wall time and for the training process's CPU time (steadier on a
@@ -106,9 +106,9 @@ def latency(preset: str, size: int) -> float:
 
 def recipe_step_times(root: str, recipe: str, size: int, batch: int, steps: int,
                       extra: list[str], shipped: bool = False,
-                      init: str | None = None) -> list[float]:
+                      init: str | None = None, warmup: int = 1) -> list[float]:
     """Wall seconds of ``steps`` training steps of a shipped recipe, built by the trainer code
-    and configs of the tree ``root`` (this process's import path), after one warm-up step;
+    and configs of the tree ``root`` (this process's import path), after ``warmup`` steps;
     ``shipped``: with the torch threads the tree's recipe sets (else 1); ``init``: weights
     loaded with the tree's own ``train.setup.init_from`` (else the recipe's random init)."""
     sys.path.insert(0, str(HERE))
@@ -129,13 +129,13 @@ def recipe_step_times(root: str, recipe: str, size: int, batch: int, steps: int,
     data = batches(build_dataset(cfg.data, 1000 * batch), batch, 0, 0, 1,
                    cfg.data.num_workers)
     times = []
-    for step in range(1, steps + 2):  # odd first step: the warm-up skips the lazy R1
+    for step in range(1, warmup + steps + 1):  # R1 (every 16th) falls on step 16, 32, ...
         t0, c0 = time.perf_counter(), time.process_time()
         g = torch.Generator().manual_seed(step)
         images, labels = _batch(next(data), cfg, parts, g)
         train_step(parts, images, labels, step_settings(parts, cfg, step), step, g)
         times.append((time.perf_counter() - t0, time.process_time() - c0))
-    return times[1:]
+    return times[warmup:]
 
 
 def compare(old: str, recipe: str, size: int, args) -> dict[str, tuple[float, float]]:
@@ -147,7 +147,7 @@ def compare(old: str, recipe: str, size: int, args) -> dict[str, tuple[float, fl
         for name, root in (("old", old), ("new", str(HERE.parent))):
             cmd = [sys.executable, str(HERE / "bench_model.py"), "--child", root, "--recipes",
                    recipe, "--sizes", str(size), "--batch", str(args.batch), "--steps",
-                   str(args.round_steps), "--layout", args.layout,
+                   str(args.round_steps), "--warmup", str(args.warmup), "--layout", args.layout,
                    *(["--init", args.init] if args.init else []),
                    *(["--set", *sets] if (sets := args.set + (
                        args.set_new if name == "new" else [])) else [])]
@@ -186,6 +186,11 @@ def main() -> None:
                     help="with --compare: steps a round (a multiple of any lazy term's k "
                     "in --set, e.g. loss.equivariance_every=4, so that each round holds "
                     "whole periods)")
+    ap.add_argument("--warmup", type=int, default=4,
+                    help="with --compare: untimed steps each child process runs first (a "
+                    "process's first steps of each kind are up to 2x slower: allocations "
+                    "and oneDNN kernels for new shapes; 4 = two periods of a k = 2 lazy "
+                    "term)")
     ap.add_argument("--set", nargs="*", default=[],
                     help="with --compare: extra Hydra overrides for both trees, key=value")
     ap.add_argument("--set-new", nargs="*", default=[],
@@ -207,7 +212,8 @@ def main() -> None:
         torch.set_num_threads(1)
     if args.child:
         times = recipe_step_times(args.child, args.recipes, args.sizes[0], args.batch,
-                                  args.steps, args.set, args.layout == "shipped", args.init)
+                                  args.steps, args.set, args.layout == "shipped", args.init,
+                                  args.warmup)
         import train
 
         print(json.dumps({"times": times, "root": str(Path(train.__file__).parents[1])}))
@@ -218,7 +224,7 @@ def main() -> None:
         start = f"weights {args.init}" if args.init else "random init"
         print(f"torch {torch.__version__}, {layout}, CPU; batch {args.batch}; {start}; "
               f"s/step: the median over {args.rounds} rounds of each round's mean over "
-              f"{args.round_steps} steps, interleaved")
+              f"{args.round_steps} steps after {args.warmup} warm-up steps, interleaved")
         print("| recipe | old wall s/step | new wall s/step | speed-up (wall) | old CPU s/step "
               "| new CPU s/step | speed-up (CPU) |\n|---|---:|---:|---:|---:|---:|---:|")
         for recipe in args.recipes.split(","):
