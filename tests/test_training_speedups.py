@@ -225,6 +225,38 @@ def test_bench_compare_layouts_set_the_recipes_threads():
         torch.set_num_threads(threads)
 
 
+def test_bench_compare_starts_from_weights_after_warm_up_steps(monkeypatch):
+    """bench_model --compare --init: the tree's own init_from loads the weights; --warmup
+    steps run untimed."""
+    import sys
+    from pathlib import Path
+
+    import train.loop
+    import train.setup
+
+    root = Path(__file__).resolve().parents[1]
+    sys.path.insert(0, str(root / "scripts"))
+    try:
+        import bench_model
+    finally:
+        sys.path.pop(0)
+    loaded, steps = [], []
+    real_init, real_step = train.setup.init_from, train.loop.train_step
+    monkeypatch.setattr(train.setup, "init_from",
+                        lambda model, path, parts: loaded.append(path) or
+                        real_init(model, path, parts))
+    monkeypatch.setattr(train.loop, "train_step",
+                        lambda *a, **k: steps.append(a[4]) or real_step(*a, **k))
+    weights = str(root / "neuraltex" / "weights" / "default.safetensors")
+    threads = torch.get_num_threads()
+    try:
+        times = bench_model.recipe_step_times(str(root), "segmenter", 32, 2, 1,
+                                              ["data.num_workers=0"], init=weights, warmup=2)
+    finally:
+        torch.set_num_threads(threads)
+    assert loaded == [weights] and steps == [1, 2, 3] and len(times) == 1
+
+
 def test_amp_auto_is_bfloat16_only_where_the_device_runs_it():
     from train.setup import use_amp
 
