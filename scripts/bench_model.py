@@ -208,6 +208,8 @@ def main() -> None:
                     "an absolute one is loaded by both")
     ap.add_argument("--child", default=None, help=argparse.SUPPRESS)
     args = ap.parse_args()
+    if not args.child:  # a child imports the tree it times (its PYTHONPATH), this one its own
+        sys.path.insert(0, str(HERE.parent))
     if args.compare:
         torch.set_num_threads(1)
     if args.child:
