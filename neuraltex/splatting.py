@@ -224,34 +224,33 @@ def _prepare(textons: Textons, size: tuple[int, int], window: Window | None):
     return t.mu, precision(t.cov), t.delta, t.features(), (H, W), window
 
 
-def _mahalanobis(mu: Tensor, prec: Tensor, grid: Tensor) -> tuple[Tensor, Tensor, Tensor]:
-    """Squared Mahalanobis distance (eq. 4.11) and offsets.
+def _mahalanobis(mu: Tensor, prec: Tensor, grid: Tensor) -> Tensor:
+    """Squared Mahalanobis distance M^2 (eq. 4.11).
 
-    mu (N, K, 2), prec (N, K, 3), grid (P, 2) or (N, P, 2) -> m2, dx, dy, each (N, K, P).
+    mu (N, K, 2), prec (N, K, 3), grid (P, 2) or (N, P, 2) -> (N, K, P).
     """
     dx = grid[..., 0].unsqueeze(-2) - mu[..., 0:1]
     dy = grid[..., 1].unsqueeze(-2) - mu[..., 1:2]
     p00, p01, p11 = (prec[..., i:i + 1] for i in range(3))
     m2 = dx * torch.addcmul(p00 * dx, 2 * p01, dy)  # dx (p00 dx + 2 p01 dy) + p11 dy^2
-    return m2.addcmul_(p11 * dy, dy), dx, dy
+    return m2.addcmul_(p11 * dy, dy)
 
 
-def _gaussian(mu: Tensor, prec: Tensor, grid: Tensor, cutoff: float | None):
-    """exp(-M^2) (eq. 4.12 without delta), zero beyond the cut-off, with M^2 and the offsets.
-    Returns g, m2, dx, dy, each (N, K, P)."""
-    m2, dx, dy = _mahalanobis(mu, prec, grid)
+def _gaussian(mu: Tensor, prec: Tensor, grid: Tensor, cutoff: float | None) -> Tensor:
+    """exp(-M^2) (eq. 4.12 without delta), zero beyond the cut-off. (N, K, P)."""
+    m2 = _mahalanobis(mu, prec, grid)
     # exp of arguments below -87 (results under the smallest normal float) takes a slow path
     # on x86, 15-35x slower; most (texton, pixel) pairs of a tile are that far.
     g = torch.exp(-m2.clamp_max(_EXP_M2))
     if cutoff is not None:
         g = g * (m2 <= cutoff * cutoff)
-    return g, m2, dx, dy
+    return g
 
 
 def _opacity(mu: Tensor, prec: Tensor, delta: Tensor, grid: Tensor,
              cutoff: float | None) -> Tensor:
     """o_i = delta_i exp(-M^2) (eq. 4.12), zero beyond the cut-off. (B, K, P)."""
-    return delta.unsqueeze(-1) * _gaussian(mu, prec, grid, cutoff)[0]
+    return delta.unsqueeze(-1) * _gaussian(mu, prec, grid, cutoff)
 
 
 def _transmittance(o: Tensor) -> Tensor:
@@ -289,7 +288,7 @@ class _SplatFunction(torch.autograd.Function):
         ctx.kept = [] if keep else None
         for s in range(0, N, chunk):
             e = s + chunk
-            g = _gaussian(mu[s:e], prec[s:e], grid[s:e], cutoff)[0]
+            g = _gaussian(mu[s:e], prec[s:e], grid[s:e], cutoff)
             o = delta[s:e].unsqueeze(-1) * g                               # (n, K, P)
             T = _transmittance(o)
             torch.bmm(feats[s:e].transpose(1, 2), o * T, out=out[s:e])
@@ -320,7 +319,7 @@ class _SplatFunction(torch.autograd.Function):
                 g, T, top = ctx.kept[c]
                 o = delta[s:e].unsqueeze(-1) * g
             else:
-                g = _gaussian(mu[s:e], pr, grid[s:e], cutoff)[0]
+                g = _gaussian(mu[s:e], pr, grid[s:e], cutoff)
                 o = delta[s:e].unsqueeze(-1) * g
                 T = _transmittance(o)
                 top = o.max(dim=1).indices if g_fmax is not None else None
