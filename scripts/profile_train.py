@@ -155,14 +155,19 @@ def step_settings(parts, cfg, step: int = 0):
 
 
 def profile(recipe: str, size: int, batch: int, steps: int, extra: list[str],
-            root: Path = ROOT):
-    """(ms per part per step, wall s per step) of ``steps`` profiled steps after a warm-up."""
+            root: Path = ROOT, init: str | None = None):
+    """(ms per part per step, wall s per step) of ``steps`` profiled steps after a warm-up;
+    ``init``: weights the model starts from (else the recipe's random init)."""
     from train.data import batches, build_dataset
     from train.setup import build
 
     cfg = compose(recipe, size, batch, extra, root)
     torch.manual_seed(0)
     parts = build(cfg, torch.device("cpu"))
+    if init:
+        from train.setup import init_from
+
+        init_from(parts.model, init, {})
     stack = contextlib.ExitStack()
     label_parts(parts, stack)
     dataset = build_dataset(cfg.data, 1000 * batch)
@@ -211,6 +216,10 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--batch", type=int, default=8, help="batch size (the shipped 8)")
     ap.add_argument("--steps", type=int, default=3, help="profiled steps after one warm-up")
     ap.add_argument("--set", nargs="*", default=[], help="extra Hydra overrides, key=value")
+    ap.add_argument("--init", default=None, metavar="WEIGHTS",
+                    help="start the model from these weights (e.g. neuraltex/weights/"
+                    "default.safetensors): a trained E_s's textons, as stage 2 splats them, "
+                    "instead of a random model's")
     ap.add_argument("--markdown", default=None, help="also write the table to this file")
     ap.add_argument("--root", default=None, help="profile the code and configs of another "
                     "checkout (e.g. main before the speed-ups) instead of this one")
@@ -224,7 +233,8 @@ def main(argv: list[str] | None = None) -> int:
         for recipe in args.recipes.split(","):
             for size in args.sizes:
                 name = f"{recipe} {size} px"
-                results[name] = profile(recipe, size, args.batch, args.steps, args.set, root)
+                results[name] = profile(recipe, size, args.batch, args.steps, args.set, root,
+                                        args.init)
                 print(f"{name}: {results[name][1]:.3f} s/step", file=sys.stderr)
     command = "python scripts/profile_train.py " + " ".join(argv if argv is not None
                                                              else sys.argv[1:])

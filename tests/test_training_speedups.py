@@ -187,9 +187,13 @@ def test_profile_script_table_and_restores_what_it_labels(tmp_path):
         sys.path.pop(0)
     backward, loss = torch.Tensor.backward, train.objective.mask_supervision_loss
     md = tmp_path / "p.md"
+    weights = Path(__file__).resolve().parents[1] / "neuraltex" / "weights" / "default.safetensors"
     assert profile_train.main(["--recipes", "segmenter", "--sizes", "64", "--batch", "2",
                                "--steps", "1", "--set", "data.num_workers=0",
-                               "--markdown", str(md)]) == 0
+                               "--init", str(weights), "--markdown", str(md)]) == 0
+    with pytest.raises(Exception, match="missing.safetensors"):  # --init is loaded
+        profile_train.main(["--recipes", "segmenter", "--sizes", "64", "--batch", "2",
+                            "--steps", "1", "--init", str(tmp_path / "missing.safetensors")])
     text = md.read_text()
     for row in ("| backward |", "| E_s transformer layers |", "| loss mask: pairwise cost |",
                 "| optimizer |", "**other**"):
