@@ -112,20 +112,14 @@ def recipe_step_times(root: str, recipe: str, size: int, batch: int, steps: int,
     ``shipped``: with the torch threads the tree's recipe sets (else 1); ``init``: weights
     loaded with the tree's own ``train.setup.init_from`` (else the recipe's random init)."""
     sys.path.insert(0, str(HERE))
-    from profile_train import compose, step_settings
+    from profile_train import build_parts, compose, step_settings
 
     from train.data import batches, build_dataset
     from train.loop import _batch, train_step
-    from train.setup import build
 
     cfg = compose(recipe, size, batch, extra, root=Path(root), threads=None if shipped else 1)
     torch.set_num_threads(int(cfg.trainer.threads or os.cpu_count()))
-    torch.manual_seed(0)
-    parts = build(cfg, torch.device("cpu"))
-    if init:
-        from train.setup import init_from
-
-        init_from(parts.model, init, {})
+    parts = build_parts(cfg, init)
     data = batches(build_dataset(cfg.data, 1000 * batch), batch, 0, 0, 1,
                    cfg.data.num_workers)
     times = []

@@ -154,20 +154,26 @@ def step_settings(parts, cfg, step: int = 0):
     return settings
 
 
+def build_parts(cfg, init: str | None = None):
+    """The trainer's parts of ``cfg`` on the CPU (seed 0), the model started from ``init``
+    weights when given (else the recipe's random init), with the imported tree's own code."""
+    from train.setup import build, init_from
+
+    torch.manual_seed(0)
+    parts = build(cfg, torch.device("cpu"))
+    if init:
+        init_from(parts.model, init, {})
+    return parts
+
+
 def profile(recipe: str, size: int, batch: int, steps: int, extra: list[str],
             root: Path = ROOT, init: str | None = None):
     """(ms per part per step, wall s per step) of ``steps`` profiled steps after a warm-up;
     ``init``: weights the model starts from (else the recipe's random init)."""
     from train.data import batches, build_dataset
-    from train.setup import build
 
     cfg = compose(recipe, size, batch, extra, root)
-    torch.manual_seed(0)
-    parts = build(cfg, torch.device("cpu"))
-    if init:
-        from train.setup import init_from
-
-        init_from(parts.model, init, {})
+    parts = build_parts(cfg, init)
     stack = contextlib.ExitStack()
     label_parts(parts, stack)
     dataset = build_dataset(cfg.data, 1000 * batch)
