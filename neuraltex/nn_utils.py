@@ -70,6 +70,22 @@ def flush_subnormals(device: torch.device | str) -> None:
         torch.set_flush_denormal(True)
 
 
+def adam(params, **kwargs) -> torch.optim.Adam:
+    """``torch.optim.Adam`` with its fused kernel (CPU and CUDA): one pass over all the
+    parameters instead of about eight ops per tensor (the segmenter step's 180 tensors: Adam
+    4.7 -> 1.7 ms of a ~60 ms step on CPU). The same update up to float rounding."""
+    return torch.optim.Adam(params, fused=True, **kwargs)
+
+
+def load_adam_state(opt: torch.optim.Optimizer, state: dict) -> None:
+    """``opt.load_state_dict(state)`` keeping ``opt``'s kernel choice (``fused`` /
+    ``foreach``): a state saved by an unfused Adam (older checkpoints) would switch it off."""
+    kernels = [{k: g.get(k) for k in ("fused", "foreach")} for g in opt.param_groups]
+    opt.load_state_dict(state)
+    for group, kernel in zip(opt.param_groups, kernels, strict=True):
+        group.update(kernel)
+
+
 def count_parameters(module: nn.Module, trainable_only: bool = True) -> int:
     """Number of (trainable) scalar parameters of ``module``."""
     return sum(p.numel() for p in module.parameters() if p.requires_grad or not trainable_only)

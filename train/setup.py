@@ -12,9 +12,10 @@ from torch.nn.parallel import DistributedDataParallel as DDP
 
 from neuraltex.checkpoint import load_exported_model, load_training_checkpoint, set_rng_state
 from neuraltex.errors import InputError
+from neuraltex.heap import keep_freed_memory
 from neuraltex.model import TextonAutoencoder, build_model
 from neuraltex.model_config import ModelConfig
-from neuraltex.nn_utils import flush_subnormals
+from neuraltex.nn_utils import adam, flush_subnormals, load_adam_state
 from train.loss_config import LossConfig
 from train.objective import CriticObjective, GeneratorObjective
 
@@ -57,6 +58,8 @@ def build(cfg: DictConfig, device: torch.device, world: int = 1) -> Parts:
     get no gradient); DDP-wrapped step modules when ``world`` > 1."""
     T, mcfg, loss = cfg.trainer, model_config(cfg), loss_config(cfg)
     flush_subnormals(device)
+    if device.type == "cpu":
+        keep_freed_memory()  # large tensors reused, not page-faulted in again (neuraltex.heap)
     model, image_critic, patch_critic = build_model(mcfg, with_critics=True)
     critics = CriticObjective(image_critic, patch_critic, loss, mcfg.image_size).to(device)
     gen = GeneratorObjective(model, critics, loss).to(device)
@@ -66,8 +69,8 @@ def build(cfg: DictConfig, device: torch.device, world: int = 1) -> Parts:
     for name in T.freeze or ():  # e.g. [segmenter]: fine-tune the rest around a fixed E_s
         getattr(model, name).requires_grad_(False)
     trainable = [p for p in model.parameters() if p.requires_grad]
-    opt_g = torch.optim.Adam(trainable, lr=T.lr, betas=tuple(T.betas))
-    opt_d = torch.optim.Adam(critics.parameters(), lr=T.d_lr, betas=tuple(T.betas))
+    opt_g = adam(trainable, lr=T.lr, betas=tuple(T.betas))
+    opt_d = adam(critics.parameters(), lr=T.d_lr, betas=tuple(T.betas))
     wrap = _ddp if world > 1 else (lambda m: m)
     return Parts(model, critics, gen, wrap(gen), wrap(critics), opt_g, opt_d, loss, device,
                  amp=use_amp(T.amp, device))
@@ -128,8 +131,8 @@ def restore(parts: Parts, T: DictConfig, run_dir: Path) -> Progress:
         ck = load_training_checkpoint(resume)
         parts.model.load_state_dict(ck["modules"]["model"])
         parts.critics.load_state_dict(ck["modules"]["critics"])
-        parts.opt_g.load_state_dict(ck["optimizers"]["g"])
-        parts.opt_d.load_state_dict(ck["optimizers"]["d"])
+        load_adam_state(parts.opt_g, ck["optimizers"]["g"])
+        load_adam_state(parts.opt_d, ck["optimizers"]["d"])
         set_rng_state(ck["rng"])
         extra = ck.get("extra", {})
         return Progress(ck["step"], float(extra.get("wall_s", 0.0)), extra.get("init", {}))
