@@ -34,6 +34,22 @@ def resize(x: torch.Tensor, size: tuple[int, int]) -> torch.Tensor:
     return F.interpolate(x, size=size, mode="bilinear", align_corners=False, antialias=shrink)
 
 
+def bilinear_sample(x: torch.Tensor, size: tuple[int, int]) -> torch.Tensor:
+    """``F.interpolate(x, size, mode="bilinear", align_corners=False)`` (no antialiasing) of
+    (B, C, H, W); a side shrunk by a whole factor f samples pixel f i + (f - 1) / 2, which is
+    one pixel for odd f and the mean of two for even f, computed here from strided slices
+    (E_s's attention masks: 32 x 32 -> 4 x 4 took 0.9 ms through the interpolation kernel,
+    0.05 ms this way). Equal up to float rounding; other sizes go to F.interpolate."""
+    (H, W), (h, w) = x.shape[-2:], size
+    if h == 0 or w == 0 or H % h or W % w:
+        return F.interpolate(x, size=size, mode="bilinear", align_corners=False)
+    (fy, fx) = (H // h, W // w)
+    ys = [slice((fy - 1) // 2, None, fy)] + ([slice(fy // 2, None, fy)] if fy % 2 == 0 else [])
+    xs = [slice((fx - 1) // 2, None, fx)] + ([slice(fx // 2, None, fx)] if fx % 2 == 0 else [])
+    out = sum(x[..., sy, sx] for sy in ys for sx in xs)
+    return out / (len(ys) * len(xs)) if len(ys) * len(xs) > 1 else out.clone()
+
+
 def shrink_short_side(x: torch.Tensor, short: int) -> torch.Tensor:
     """(B, C, H, W) downscaled (antialiased, never enlarged) so its short side is at most
     ``short``; the aspect ratio is kept."""

@@ -52,6 +52,32 @@ def test_masked_attention_gradcheck_float64():
                                     (q, k, v))
 
 
+@pytest.mark.parametrize("per_head", [False, True])
+def test_fused_attention_without_weights_equals_the_explicit_one(per_head):
+    """need_weights=False (training: torch's fused kernel) gives the explicit softmax's
+    output and gradients, with blocked keys, in float64."""
+    q, k, v = (torch.randn(2, 4, 7 if i == 0 else 9, 8, dtype=torch.float64,
+                           requires_grad=True) for i in range(3))
+    blocked = torch.rand(2, 4, 7, 9) < 0.6 if per_head else torch.rand(2, 7, 9) < 0.6
+    blocked[..., 0] = False  # every query has a key
+    fast, none = masked_attention(q, k, v, blocked, need_weights=False)
+    ref, w = masked_attention(q, k, v, blocked)
+    assert none is None and w is not None and torch.allclose(fast, ref, atol=1e-12)
+    g = torch.randn_like(ref)
+    assert all(torch.allclose(a, b, atol=1e-12) for a, b in zip(
+        torch.autograd.grad(fast, (q, k, v), g), torch.autograd.grad(ref, (q, k, v), g),
+        strict=True))
+    unmasked, _ = masked_attention(q, k, v, torch.zeros_like(blocked), need_weights=False)
+    assert not torch.allclose(unmasked, ref, atol=1e-3)  # the mask is applied
+
+
+def test_segmenter_logits_equal_with_and_without_attention_weights(tiny):
+    seg = SegmentationNet.from_config(tiny.segmentation).double()
+    x = torch.rand(2, 3, 64, 64, dtype=torch.float64)
+    plain, traced = seg(x).logits, seg(x, return_attention=True).logits
+    assert torch.allclose(plain, traced, atol=1e-10)
+
+
 @pytest.mark.parametrize("mode", ["softmax", "sigmoid"])
 def test_decoder_attention_is_masked_by_previous_prediction(tiny, mode):
     cfg = SegmentationConfig(**{**tiny.segmentation.__dict__, "attn_mask_mode": mode})

@@ -9,7 +9,7 @@ import torch.nn.functional as F
 
 from neuraltex.model import build_model, load_model
 from neuraltex.model_config import ModelConfig
-from neuraltex.nn_utils import resize, sort_last, upsample_crop_resize
+from neuraltex.nn_utils import bilinear_sample, resize, sort_last, upsample_crop_resize
 from neuraltex.query_grid import adapt_queries, grid_shape, resample_queries
 from neuraltex.segmentation import SegmentationNet
 from train.mask_supervision import mask_supervision_loss
@@ -35,6 +35,22 @@ def test_upsample_crop_resize_equals_the_chain_forward_and_backward(shapes):
     assert torch.allclose(gf, gr, atol=1e-12)
     with pytest.raises(ValueError):
         upsample_crop_resize(x, (2, 2), (2, 2), (2, 2))
+
+
+@pytest.mark.parametrize("sizes", [((32, 32), (4, 4)), ((32, 32), (16, 16)), ((30, 33), (10, 11)),
+                                   ((24, 30), (4, 5)), ((16, 16), (16, 16)), ((37, 50), (12, 25)),
+                                   ((8, 8), (16, 16))])
+def test_bilinear_sample_equals_interpolate_forward_and_backward(sizes):
+    """Whole factors, even (a mean of two pixels) and odd (one pixel) per side, and sizes
+    that fall back to F.interpolate: the same values and gradients."""
+    (H, W), size = sizes
+    x = torch.randn(2, 3, H, W, dtype=torch.float64, requires_grad=True)
+    fast = bilinear_sample(x, size)
+    ref = F.interpolate(x, size=size, mode="bilinear", align_corners=False)
+    assert fast.shape == ref.shape and torch.allclose(fast, ref, atol=1e-12)
+    g = torch.randn_like(ref)
+    (gf,), (gr,) = torch.autograd.grad(fast, x, g), torch.autograd.grad(ref, x, g)
+    assert torch.allclose(gf, gr, atol=1e-12)
 
 
 @pytest.mark.parametrize("dtype", [torch.float32, torch.float64, torch.bfloat16])
