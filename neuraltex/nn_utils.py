@@ -70,11 +70,23 @@ def sort_last(x: torch.Tensor) -> torch.Tensor:
     the tied entries a gradient reaches. Other devices use torch.sort."""
     if x.device.type != "cpu" or not x.is_floating_point() or x.dim() == 0:
         return torch.sort(x, dim=-1).values
-    flat = x.detach()
-    flat = (flat if flat.dtype in (torch.float32, torch.float64) else flat.float()).numpy()
     if not x.requires_grad:
-        return torch.from_numpy(np.sort(flat, axis=-1)).to(x.dtype)
-    return x.gather(-1, torch.from_numpy(np.argsort(flat, axis=-1)))
+        return torch.from_numpy(np.sort(_as_numpy(x), axis=-1)).to(x.dtype)
+    return x.gather(-1, argsort_last(x))
+
+
+def argsort_last(x: torch.Tensor) -> torch.Tensor:
+    """``torch.argsort(x, dim=-1)`` (long), from numpy on CPU (x86-simd-sort: an (8, 4096)
+    float32 array in 0.25 ms against 1.3 ms; the mask loss's point draw). Ties may be
+    ordered differently."""
+    if x.device.type != "cpu" or not x.is_floating_point() or x.dim() == 0:
+        return torch.argsort(x, dim=-1)
+    return torch.from_numpy(np.argsort(_as_numpy(x), axis=-1))
+
+
+def _as_numpy(x: torch.Tensor) -> np.ndarray:
+    x = x.detach()
+    return (x if x.dtype in (torch.float32, torch.float64) else x.float()).numpy()
 
 
 def flush_subnormals(device: torch.device | str) -> None:

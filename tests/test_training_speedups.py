@@ -9,7 +9,13 @@ import torch.nn.functional as F
 
 from neuraltex.model import build_model, load_model
 from neuraltex.model_config import ModelConfig
-from neuraltex.nn_utils import bilinear_sample, resize, sort_last, upsample_crop_resize
+from neuraltex.nn_utils import (
+    argsort_last,
+    bilinear_sample,
+    resize,
+    sort_last,
+    upsample_crop_resize,
+)
 from neuraltex.query_grid import adapt_queries, grid_shape, resample_queries
 from neuraltex.segmentation import SegmentationNet
 from train.mask_supervision import mask_supervision_loss
@@ -71,6 +77,18 @@ def test_sort_last_equals_torch_sort_values_and_gradients(dtype):
     if dtype != torch.bfloat16:  # bfloat16's 256 levels tie; ties may take either order
         assert torch.equal(grads[0], grads[1])
     assert torch.equal(grads[0].sort(-1).values, grads[1].sort(-1).values)
+
+
+def test_argsort_last_orders_like_torch_argsort():
+    """The permutation that sorts (the mask loss's draw: rand values, which may tie), and
+    without ties exactly torch's, also for float64 and strided views."""
+    g = torch.Generator().manual_seed(1)
+    x = torch.rand(8, 4096, generator=g)
+    idx = argsort_last(x)
+    assert idx.dtype == torch.long and torch.equal(x.gather(-1, idx), x.sort(-1).values)
+    distinct = torch.stack([torch.randperm(4096, generator=g) for _ in range(8)]) / 4096
+    for y in (distinct, distinct.double(), distinct.T):
+        assert torch.equal(argsort_last(y), torch.argsort(y, dim=-1))
 
 
 def test_segmenter_out_size_equals_resizing_its_full_size_logits(tiny):

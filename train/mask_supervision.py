@@ -18,6 +18,8 @@ import torch.nn.functional as F
 from scipy.optimize import linear_sum_assignment
 from torch import Tensor
 
+from neuraltex.nn_utils import argsort_last
+
 _EPS = 1e-6
 
 
@@ -108,7 +110,7 @@ def mask_supervision_loss(masks: Tensor, labels: Tensor, points: int | None = No
     index, valid = instance_targets(labels.long().to(masks.device), n)  # (B, P), (B, m)
     S = masks.reshape(B, n, H * W)
     if points and points < H * W:
-        pick = torch.rand(B, H * W, generator=generator).argsort(-1)[:, :points]  # (B, k)
+        pick = argsort_last(torch.rand(B, H * W, generator=generator))[:, :points]  # (B, k)
         pick = pick.to(masks.device)
         S, index = S.gather(-1, pick[:, None].expand(B, n, points)), index.gather(-1, pick)
     if logits:
