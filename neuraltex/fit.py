@@ -36,7 +36,7 @@ from torch import Tensor, nn
 
 from neuraltex.estimation import estimate_textons, painter_order
 from neuraltex.fit_prior import start_generator
-from neuraltex.nn_utils import resize
+from neuraltex.nn_utils import adam, resize
 from neuraltex.segmenters import MAX_SEGMENTS, METHODS, segment_labels, soft_masks
 from neuraltex.splatting import splat
 from neuraltex.texton_detail import DetailSampler, attach, auto_side, fit_sprites
@@ -277,7 +277,7 @@ def tuning(G: nn.Module, textons: Textons, offsets: Tensor, cfg: FitSettings
         p.requires_grad_(True)
     fa = nn.Parameter(textons.f.detach().clone())
     d = nn.Parameter(offsets.detach().clone())
-    opt = torch.optim.Adam([{"params": list(G.parameters()), "lr": cfg.lr},
+    opt = adam([{"params": list(G.parameters()), "lr": cfg.lr},
                             {"params": [fa], "lr": cfg.lr_features},
                             {"params": [d], "lr": cfg.lr_offsets}])
     return (lambda: replace(textons, f=torch.cat([F.normalize(fa, dim=-1), d], dim=-1))), opt

@@ -35,6 +35,7 @@ def load(checkpoint: str | Path | None, device: str = "cpu",
     torch first (texton existence is sampled in some commands)."""
     import torch
 
+    from neuraltex.heap import keep_freed_memory
     from neuraltex.model import DEFAULT_MODEL, load_model
     from neuraltex.nn_utils import flush_subnormals
 
@@ -48,6 +49,7 @@ def load(checkpoint: str | Path | None, device: str = "cpu",
     if seed is not None:
         torch.manual_seed(seed)
     flush_subnormals(device)
+    keep_freed_memory()  # large tensors reused, not page-faulted in again (neuraltex.heap)
     return load_model(path, device=device)
 
 
