@@ -50,18 +50,21 @@ def _images(n: int, size: int) -> torch.Tensor:
 
 
 def train_speed(preset: str, size: int, batch: int, steps: int) -> tuple[float, float]:
+    from neuraltex.heap import keep_freed_memory
     from neuraltex.model import build_model
     from neuraltex.model_config import ModelConfig
+    from neuraltex.nn_utils import adam
     from train.loss_config import LossConfig, StepSettings
     from train.objective import CriticObjective, GeneratorObjective
 
+    keep_freed_memory()  # as the training program does (train.setup.build)
     torch.manual_seed(0)
     model, d, dp = build_model(ModelConfig(preset=preset), with_critics=True)
     loss = LossConfig(lpips_backbone="random")
     critics = CriticObjective(d, dp, loss, image_size=size)
     gen = GeneratorObjective(model, critics, loss)
-    opt_g = torch.optim.Adam(model.parameters(), lr=1e-4, betas=(0.5, 0.999))
-    opt_d = torch.optim.Adam(critics.parameters(), lr=1e-4, betas=(0.5, 0.999))
+    opt_g = adam(model.parameters(), lr=1e-4, betas=(0.5, 0.999))
+    opt_d = adam(critics.parameters(), lr=1e-4, betas=(0.5, 0.999))
     images = _images(batch, size)
     w = StepSettings(entropy=0.08, compact=1.0, csis=0.08, texture=0.01, gan=0.1, pgan=0.1,
                      mask=1.0, patch_size=2)

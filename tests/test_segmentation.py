@@ -20,7 +20,7 @@ pytestmark = pytest.mark.usefixtures("one_thread", "seeded")
 @pytest.mark.parametrize("hw", SIZES)
 def test_segmentation_shapes_and_softmax(tiny, b, hw):
     seg = SegmentationNet.from_config(tiny.segmentation)
-    out = seg(torch.rand(b, 3, *hw))
+    out = seg(torch.rand(b, 3, *hw), aux=True)
     n = tiny.segmentation.num_queries
     assert out.logits.shape == out.masks.shape == (b, n, *hw)
     assert len(out.aux_logits) == tiny.segmentation.num_layers + 1
@@ -82,7 +82,7 @@ def test_segmenter_logits_equal_with_and_without_attention_weights(tiny):
 def test_decoder_attention_is_masked_by_previous_prediction(tiny, mode):
     cfg = SegmentationConfig(**{**tiny.segmentation.__dict__, "attn_mask_mode": mode})
     seg = SegmentationNet.from_config(cfg)
-    out = seg(torch.rand(2, 3, 64, 64), return_attention=True)
+    out = seg(torch.rand(2, 3, 64, 64), return_attention=True, aux=True)
     assert len(out.attn_masks) == len(out.attn_weights) == cfg.num_layers
     for blocked, w, prev in zip(out.attn_masks, out.attn_weights,
                                 out.aux_logits[:-1], strict=True):
@@ -92,6 +92,32 @@ def test_decoder_attention_is_masked_by_previous_prediction(tiny, mode):
         # the mask comes from the previous layer's prediction (the initial queries' for layer 0)
         assert torch.equal(blocked, seg.blocked_from_logits(prev, (side, side)))
     assert any(b.any() for b in out.attn_masks), "masks never block anything"
+
+
+@pytest.mark.parametrize("mode", ["softmax", "sigmoid"])
+@pytest.mark.parametrize("hw", [(64, 64), (128, 96), (37, 50)])
+def test_attention_masks_from_level_size_predictions_equal_the_resampled_ones(tiny, mode, hw):
+    """Without ``aux`` each layer's attention mask comes from a prediction made at its memory
+    level's size (query . resampled features + the resampled separable prior): the same
+    masks, hence the same logits, as resampling the full stride-4 predictions (float64)."""
+    cfg = SegmentationConfig(**{**tiny.segmentation.__dict__, "attn_mask_mode": mode})
+    seg = SegmentationNet.from_config(cfg).double()
+    with torch.no_grad():  # a trained-like prior: offsets and spreads away from zero
+        seg.anchor_prior.head.weight.normal_(0, 0.5)
+    x = torch.rand(2, 3, *hw, dtype=torch.float64)
+    fast, ref = seg(x, return_attention=True), seg(x, return_attention=True, aux=True)
+    assert fast.aux_logits == [] and len(ref.aux_logits) == cfg.num_layers + 1
+    assert all(torch.equal(a, b) for a, b in zip(fast.attn_masks, ref.attn_masks, strict=True))
+    if mode == "softmax":  # (random sigmoid masks block everything, i.e. nothing)
+        assert any(m.any() for m in fast.attn_masks)
+    assert torch.allclose(fast.logits, ref.logits, atol=1e-12)
+    coarse = seg._coarse_predictor  # the level-size prediction against resampling
+    feats, _ = seg.pixel_decoder(seg.backbone(x[..., :64, :64]))
+    from neuraltex.nn_utils import bilinear_sample
+    q = torch.randn(2, cfg.num_queries, cfg.hidden_dim, dtype=torch.float64)
+    full = seg.mask_head(q, feats) + seg.anchor_prior(q, tuple(feats.shape[-2:]), (1.0, 1.0))
+    got = coarse(feats, [(4, 4), (2, 2)], (1.0, 1.0))(q, 0)
+    assert torch.allclose(got, bilinear_sample(full, (4, 4)), atol=1e-12)
 
 
 def test_sine_position_encoding_shape_and_range():

@@ -186,7 +186,7 @@ def test_fine_mask_stride_segmenter(tiny, stride):
     from dataclasses import replace
 
     seg = SegmentationNet.from_config(replace(tiny.segmentation, mask_stride=stride))
-    out = seg(torch.rand(2, 3, 40, 36))
+    out = seg(torch.rand(2, 3, 40, 36), aux=True)
     assert out.logits.shape == (2, tiny.segmentation.num_queries, 40, 36)
     assert out.aux_logits[-1].shape[-2:] == (16, 16)  # deep supervision stays at stride 4
     out.logits.logsumexp(1).mean().backward()
