@@ -39,6 +39,9 @@ def test_compactness_prefers_compact_segments():
 
 
 def test_reconstruction_loss_is_zero_on_identity_and_masks_pixels():
+    from neuraltex.perceptual import _warn_random_trunk
+
+    _warn_random_trunk.cache_clear()  # said once per process: an earlier test may have built one
     with pytest.warns(UserWarning, match="randomly initialized"):
         loss = ReconstructionLoss(backbone="auto")
     assert loss.lpips.backbone_used == "random"
