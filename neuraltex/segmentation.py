@@ -72,9 +72,9 @@ class SegmentationConfig:
 @dataclass
 class SegmentationOutput:
     logits: torch.Tensor  # (B, n, H, W) mask logits at input resolution (or ``out_size``)
-    # predictions from the initial queries and after each layer (num_layers + 1, the last is
-    # the final one unless mask_stride < 4) at stride 4 of the padded input, (B, n, H'/4, W'/4),
-    # for deep supervision
+    # with aux=True: predictions from the initial queries and after each layer (num_layers + 1,
+    # the last is the final one unless mask_stride < 4) at stride 4 of the padded input,
+    # (B, n, H'/4, W'/4), for deep supervision
     aux_logits: list[torch.Tensor] = field(default_factory=list)
     attn_masks: list[torch.Tensor] = field(default_factory=list)  # per layer, (B, n, L) blocked
     attn_weights: list[torch.Tensor] = field(default_factory=list)  # per layer, (B, heads, n, L)
@@ -394,24 +394,19 @@ class SegmentationNet(nn.Module):
 
         coarse = None if aux else self._coarse_predictor(mask_features, sizes, valid)
         out = SegmentationOutput(logits=mask_features.new_zeros(()))
-        logits = predict(tgt) if aux else None
         if aux:
-            out.aux_logits.append(logits)
+            out.aux_logits.append(predict(tgt))
         for i, layer in enumerate(self.layers):
             lvl = i % len(mems)
-            if aux:
-                blocked = self.blocked_from_logits(logits, sizes[lvl])  # (B, n, L)
-            else:
-                blocked = self.blocked_from_logits(coarse(tgt, lvl), sizes[lvl])
+            prev = out.aux_logits[-1] if aux else coarse(tgt, lvl)  # the previous prediction
+            blocked = self.blocked_from_logits(prev, sizes[lvl])  # (B, n, L)
             tgt, weights = layer(tgt, qpos, mems[lvl], poss[lvl], blocked, return_attention)
             if aux:
-                logits = predict(tgt)
-                out.aux_logits.append(logits)
+                out.aux_logits.append(predict(tgt))
             if return_attention:
                 out.attn_masks.append(blocked)
                 out.attn_weights.append(weights)
-        if not aux:
-            logits = predict(tgt)
+        logits = out.aux_logits[-1] if aux else predict(tgt)  # (B, n, H'/4, W'/4)
         if self.upsampler is not None:  # the final masks at stride 2 or 1
             fine = self.upsampler(mask_features, x)  # (B, C, H'/s, W'/s)
             # the prior stays a stride-4 map, upsampled: a fresh upsampler then changes nothing

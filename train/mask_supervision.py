@@ -101,7 +101,8 @@ def mask_supervision_loss(masks: Tensor, labels: Tensor, points: int | None = No
 
     The costs of all images come from one batched product without a gradient; only the
     assignment runs per image (scipy), and the loss is computed again, with its gradient,
-    for the matched pairs alone (the same numbers; 1.3x less time for the segmenter step)."""
+    for the matched pairs alone (the same numbers, and a backward over m instead of n x m
+    pairs)."""
     if masks.dtype in (torch.bfloat16, torch.float16):  # autocast (trainer.amp): the loss in
         masks = masks.float()                            # float32 (float64 stays float64)
     B, n, H, W = masks.shape
