@@ -81,3 +81,13 @@ def test_build_gives_fused_adams(tmp_path):
         cfg = compose(config_name="train", overrides=[f"run_dir={tmp_path}", "debug=fast"])
     parts = build(cfg, torch.device("cpu"))
     assert all(g["fused"] for opt in (parts.opt_g, parts.opt_d) for g in opt.param_groups)
+
+
+def test_adam_falls_back_where_the_fused_kernel_does_not_run():
+    """Parameters on a device without the kernel in every supported torch (here a meta
+    tensor) get the usual Adam; parameter groups are looked into."""
+    fused = adam([nn.Parameter(torch.zeros(3))], lr=0.1)
+    assert fused.param_groups[0]["fused"] is True
+    meta = adam([{"params": [nn.Parameter(torch.zeros(3))]},
+                 {"params": [nn.Parameter(torch.zeros(3, device="meta"))]}], lr=0.1)
+    assert not any(g["fused"] for g in meta.param_groups)
