@@ -105,8 +105,12 @@ def adam(params, **kwargs) -> torch.optim.Adam:
     elsewhere than on CPU or CUDA (where torch >= 2.4 has the kernel), or not floating point,
     get the usual Adam."""
     params = list(params)
-    tensors = [p for item in params for p in (item["params"] if isinstance(item, dict) else [item])]
-    fused = all(p.device.type in ("cpu", "cuda") and p.is_floating_point() for p in tensors)
+    groups = [dict(g, params=list(g["params"])) if isinstance(g, dict) else {"params": [g]}
+              for g in params]  # (a group's parameters may come as a one-pass iterator)
+    fused = all(p.device.type in ("cpu", "cuda") and p.is_floating_point()
+                for g in groups for p in g["params"])
+    if all(isinstance(g, dict) for g in params):
+        params = groups
     return torch.optim.Adam(params, fused=fused or None, **kwargs)
 
 

@@ -91,3 +91,9 @@ def test_adam_falls_back_where_the_fused_kernel_does_not_run():
     meta = adam([{"params": [nn.Parameter(torch.zeros(3))]},
                  {"params": [nn.Parameter(torch.zeros(3, device="meta"))]}], lr=0.1)
     assert not any(g["fused"] for g in meta.param_groups)
+
+
+def test_adam_keeps_parameters_given_as_an_iterator_inside_a_group():
+    net = nn.Linear(3, 2)
+    opt = adam([{"params": net.parameters(), "lr": 0.1}])
+    assert len(opt.param_groups[0]["params"]) == 2 and opt.param_groups[0]["fused"] is True
