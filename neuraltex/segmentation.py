@@ -393,20 +393,19 @@ class SegmentationNet(nn.Module):
             return logits
 
         coarse = None if aux else self._coarse_predictor(mask_features, sizes, valid)
-        out = SegmentationOutput(logits=mask_features.new_zeros(()))
-        if aux:
-            out.aux_logits.append(predict(tgt))
+        aux_logits = [predict(tgt)] if aux else []
+        attn_masks, attn_weights = [], []
         for i, layer in enumerate(self.layers):
             lvl = i % len(mems)
-            prev = out.aux_logits[-1] if aux else coarse(tgt, lvl)  # the previous prediction
+            prev = aux_logits[-1] if aux else coarse(tgt, lvl)  # the previous prediction
             blocked = self.blocked_from_logits(prev, sizes[lvl])  # (B, n, L)
             tgt, weights = layer(tgt, qpos, mems[lvl], poss[lvl], blocked, return_attention)
             if aux:
-                out.aux_logits.append(predict(tgt))
+                aux_logits.append(predict(tgt))
             if return_attention:
-                out.attn_masks.append(blocked)
-                out.attn_weights.append(weights)
-        logits = out.aux_logits[-1] if aux else predict(tgt)  # (B, n, H'/4, W'/4)
+                attn_masks.append(blocked)
+                attn_weights.append(weights)
+        logits = aux_logits[-1] if aux else predict(tgt)  # (B, n, H'/4, W'/4)
         if self.upsampler is not None:  # the final masks at stride 2 or 1
             fine = self.upsampler(mask_features, x)  # (B, C, H'/s, W'/s)
             # the prior stays a stride-4 map, upsampled: a fresh upsampler then changes nothing
@@ -414,7 +413,7 @@ class SegmentationNet(nn.Module):
                 logits - self.mask_head(tgt, mask_features), size=fine.shape[-2:],
                 mode="bilinear", align_corners=False)
         if out_size is None:
-            out.logits = resize(logits, tuple(x.shape[-2:]))[..., :h, :w]  # (B, n, H, W)
+            logits = resize(logits, tuple(x.shape[-2:]))[..., :h, :w]  # (B, n, H, W)
         else:
-            out.logits = upsample_crop_resize(logits, tuple(x.shape[-2:]), (h, w), out_size)
-        return out
+            logits = upsample_crop_resize(logits, tuple(x.shape[-2:]), (h, w), out_size)
+        return SegmentationOutput(logits, aux_logits, attn_masks, attn_weights)
