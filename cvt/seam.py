@@ -31,6 +31,8 @@ plain outputs. Compared with its own neighbours it reads mostly the step across 
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 import torch
 import torch.nn.functional as F
@@ -220,15 +222,53 @@ def step_profile(image: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
                  for axis in (1, 0))
 
 
-def step_ratio(profile: np.ndarray, at: np.ndarray, near: int = NEAR) -> np.ndarray:
+def step_ratio(profile: np.ndarray, at: np.ndarray, near: int = NEAR,
+               offsets: np.ndarray | None = None) -> np.ndarray:
     """The colour step across line ``at`` over the mean step across the lines 1 ... ``near``
     px either side of it: lines that cross nearly the same motifs, so the content a line
     crosses cancels out (a line's patch SWD against far controls varies with it, coefficient
-    of variation 0.5-0.7; this ratio 0.2-0.5 on the emoji tiles). Shape: (n,), (D,) -> (D,)."""
+    of variation 0.5-0.7; this ratio 0.2-0.5 on the emoji tiles). ``offsets``: the lines to
+    compare with instead, relative to ``at`` (:func:`step_offsets`). Shape: (n,), (D,) -> (D,)."""
     at = np.asarray(at)
-    side = np.r_[-np.arange(1, near + 1), np.arange(1, near + 1)]  # (2 near,)
-    ctrl = profile[(at[:, None] + side[None]) % len(profile)].mean(1)
+    side = np.r_[-np.arange(1, near + 1), np.arange(1, near + 1)] if offsets is None else offsets
+    ctrl = profile[(at[:, None] + np.asarray(side)[None]) % len(profile)].mean(1)
     return profile[at] / np.maximum(ctrl, STEP_FLOOR)
+
+
+def step_offsets(image: np.ndarray, axis: int, near: int = NEAR) -> np.ndarray:
+    """The lines a line's colour step is compared with, as offsets from it (axis 1: vertical
+    lines, 0: horizontal): on an exactly periodic image (a lattice whose cell divides the
+    tile) the image's near-periods (:func:`periods`), the lines that run at the same place
+    in their cells and should look exactly like it (a line along a cell border crosses the
+    border's grout or colour change, one a pixel beside it does not); else the lines 1 ...
+    ``near`` px either side. Shape: (H, W, 3) -> (L,)."""
+    t = periods(image, axis)
+    return t if len(t) else np.r_[-np.arange(1, near + 1), np.arange(1, near + 1)]
+
+
+@dataclass(frozen=True)
+class StepLines:
+    """The colour step across every line of one tile axis (:func:`step_profile`) and the
+    offsets of the lines each is compared with (:func:`step_offsets`); ``len`` is the number
+    of lines, as for a profile."""
+
+    profile: np.ndarray  # (n,)
+    offsets: np.ndarray  # (L,)
+
+    def __len__(self) -> int:
+        return len(self.profile)
+
+
+def step_lines(image: np.ndarray) -> tuple[StepLines, StepLines]:
+    """:class:`StepLines` of the vertical and the horizontal lines. Shape: (H, W, 3)."""
+    return tuple(StepLines(p, step_offsets(image, axis))
+                 for p, axis in zip(step_profile(image), (1, 0), strict=True))
+
+
+def phase_step_ratio(lines: StepLines, at: np.ndarray) -> np.ndarray:
+    """:func:`step_ratio` against the lines at the same phase of the image's period where it
+    has one (:func:`step_offsets`). Shape: (n,) lines, (D,) -> (D,)."""
+    return step_ratio(lines.profile, at, offsets=lines.offsets)
 
 
 def seam_step(image: np.ndarray, near: int = NEAR) -> tuple[float, float]:

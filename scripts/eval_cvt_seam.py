@@ -11,8 +11,11 @@ STEP px (cvt.seam): its patch SWD (patches straddling the line against those bes
 its colour step. A tile axis reads seam / interior: for patch SWD the seam line over the mean
 of the controls MARGIN px or more away (as cvt.seam.seam_ratio), for the colour step the seam
 line over the lines 1-8 px either side (cvt.seam.step_ratio: they cross the same motifs, so
-what a line crosses cancels out). The ratio of a set of tiles is the mean over its tile axes.
-Printed per exemplar and pooled over all exemplars, for
+what a line crosses cancels out); "colour step in phase" the same, but on an exactly periodic
+tile (a lattice whose cell divides it) against the lines one, two ... periods away
+(cvt.seam.step_offsets: a seam along a cell border is compared with the interior cell
+borders, not with the lines inside the cells beside it). The ratio of a set of tiles is the
+mean over its tile axes. Printed per exemplar and pooled over all exemplars, for
 - the --tileable tiles (``*--tileable-*.svg``; the target: within 1.1);
 - the same tiles rolled (the seam moved to a random line: seamless by construction), the
   estimator's noise: the share of draws within 1.1 and their 95th percentile;
@@ -39,9 +42,11 @@ from cvt.seam import (  # noqa: E402
     _projected,
     line_swd,
     misaligned,
+    phase_step_ratio,
     pooled_ratios,
     rolled_draws,
     seam_and_inner,
+    step_lines,
     step_profile,
     step_ratio,
 )
@@ -53,12 +58,15 @@ def swd_ratio(values: np.ndarray, at: np.ndarray) -> np.ndarray:
     return seam / inner
 
 
-MEASURES = {"patch SWD": swd_ratio, "colour step": step_ratio}
+MEASURES = {"patch SWD": swd_ratio, "colour step": step_ratio,
+            "colour step in phase": phase_step_ratio}
 
 
 def lines_of(image: np.ndarray, measures) -> dict:
     """Per measure, the per-line values of both axes. Shape: (H, W, 3) -> {name: ((n0,), (n1,))}."""
     out = {"colour step": step_profile(image)}
+    if "colour step in phase" in measures:
+        out["colour step in phase"] = step_lines(image)
     if "patch SWD" in measures:
         maps = _projected(image)
         out["patch SWD"] = tuple(line_swd(maps, axis, np.arange(0, image.shape[axis], STEP))
@@ -99,8 +107,8 @@ def main() -> None:
     ap.add_argument("--rolls", type=int, default=2000,
                     help="draws of the seamless reference (default 2000)")
     ap.add_argument("--measures", nargs="+", choices=tuple(MEASURES), default=tuple(MEASURES),
-                    metavar="M", help="patch SWD (about 3 CPU s a tile) and/or colour step "
-                    "(default both; quote each)")
+                    metavar="M", help="patch SWD (about 3 CPU s a tile), colour step and/or colour "
+                    "step in phase (default all three; quote each)")
     args = ap.parse_args()
     if args.width < 4 * STEP or not 0 < args.shift < args.width // 4 or args.rolls < 1:
         ap.error("need --width >= 32, 0 < --shift < width / 4 and --rolls >= 1")

@@ -146,6 +146,42 @@ def test_colour_step_reads_one_on_a_seamless_tile_and_flags_a_misaligned_one():
     assert pooled_ratios(step_ratio, cut, np.zeros((1, 4, 2), int))[0] > 1.5
 
 
+def test_colour_step_in_phase_compares_a_lattice_seam_with_the_interior_cell_borders():
+    """A lattice tile whose cells have a dark border (grout): the wrap runs along a cell
+    border, so against the lines beside it it reads like a seam, against the interior cell
+    borders (the image's periods) exactly 1; cut out of register, or cut mid-cell, it has no
+    period left and reads as the seam it is."""
+    from cvt.seam import (
+        NEAR,
+        misaligned,
+        phase_step_ratio,
+        pooled_ratios,
+        rolled_draws,
+        step_lines,
+        step_profile,
+        step_ratio,
+    )
+
+    cell = _discs(4, 48, seed=2)
+    cell[:2], cell[:, :2] = 0.1, 0.1  # grout along the cell border
+    lattice = np.tile(cell, (4, 4, 1))  # (192, 192, 3)
+    lines = step_lines(lattice)
+    assert [sorted(x.offsets.tolist()) for x in lines] == [[48, 96, 144]] * 2
+    at0 = np.zeros((1, 1, 2), int)
+    assert pooled_ratios(step_ratio, [step_profile(lattice)], at0)[0] > 3  # vs its neighbours
+    assert pooled_ratios(phase_step_ratio, [lines], at0)[0] == 1.0
+    rolled = pooled_ratios(phase_step_ratio, [lines], rolled_draws([lines], rolls=50))
+    # every line equals its translates: 1, or 0 on a flat line (no step, read at the floor)
+    assert rolled.max() == 1.0 and set(np.unique(rolled).tolist()) <= {0.0, 0.5, 1.0}
+    for bad in (misaligned(lattice, 4), lattice[:170, :170]):
+        lines = step_lines(bad)
+        assert [len(x.offsets) for x in lines] == [2 * NEAR] * 2  # no period: the neighbours
+        assert pooled_ratios(phase_step_ratio, [lines], at0)[0] > 1.5
+    seamless = _discs(60, 192, seed=0)  # no period: the same as the plain colour step
+    assert np.allclose(pooled_ratios(phase_step_ratio, [step_lines(seamless)], at0),
+                       pooled_ratios(step_ratio, [step_profile(seamless)], at0))
+
+
 def test_step_profile_is_the_step_between_neighbouring_columns_and_rows_wrapping():
     from cvt.seam import step_profile, step_ratio
 

@@ -40,6 +40,33 @@ def test_seam_measures_on_a_seamless_field_and_on_a_cut_one():
             assert base.seam(pic) > 3
 
 
+def test_repetition_reads_the_texture_not_the_canvas():
+    """A texture with a 100 px period reads 1 on a 256 px and on a 512 px canvas, where the
+    circular measure read it 0.64 and 0.83 (its canvas's wrap cuts the period): the bias that
+    made a continued tile look closer to the 2 x 2 tiling than to its input. A random field
+    reads low and its 2 x 2 tiling 1 under both."""
+    from scipy.ndimage import gaussian_filter
+
+    g = np.random.default_rng(0)
+    tile = gaussian_filter(g.random((100, 100, 3)), (3, 3, 0), mode="wrap")
+    periodic = np.tile(tile, (6, 6, 1))
+    small, large = periodic[:256, :256], periodic[:512, :512]
+    assert base.repetition(small) > 0.999 and base.repetition(large) > 0.999
+    assert base.repetition_circular(small) < 0.7 < 0.8 < base.repetition_circular(large)
+    field = gaussian_filter(g.random((256, 256, 3)), (3, 3, 0), mode="wrap")
+    for measure in (base.repetition, base.repetition_circular):
+        assert measure(field) < 0.2
+        assert measure(base.tiling(field, (512, 512))) > 0.999
+        assert measure(base.tiling(field, (256, 768))) > 0.999
+    # the shift range: at least MIN_SHIFT, at most half the side (a 40 px period in a 64 px
+    # picture counts, a 10 px one does not)
+    stripes = np.sin(2 * np.pi * np.arange(64) / 10)[None, :, None] * np.ones((64, 1, 3))
+    assert base.repetition(stripes) > 0.99  # 20 px: twice the period
+    lone = np.zeros((64, 64, 3))
+    lone[20:30, 20:30] = 1.0  # one square: no shift puts it on itself
+    assert base.repetition(lone) < 0.2
+
+
 def test_scores_of_several_seeds_are_averaged_per_method_and_measure():
     """eval_synthesis --seeds: every method's patch-SWD, Gram and repetition are the mean of
     its seeds' (the summary counts wins on those means)."""
@@ -59,21 +86,27 @@ def test_scores_of_several_seeds_are_averaged_per_method_and_measure():
 
 def test_summary_counts_wins_over_the_stronger_random_placement():
     """ours must beat random placement of the same elements and of their whole groups
-    (random_g) to count in the stronger line; the same-elements line counts the first only."""
+    (random_g) to count in the stronger line; the same-elements line counts the first only.
+    Repetition counts, per measure, the textures where ours is not closer to the tiling's
+    value than to the input's."""
     import eval_synthesis
 
-    def sc(ours, rand, rand_g):
-        out = {m: {"swd": 1.0, "gram": 0.1, "rep": 0.1} for m in eval_synthesis.METHODS}
+    def sc(ours, rand, rand_g, rep):
+        out = {m: {"swd": 1.0, "gram": 0.1, "rep": 1.0, "rep_c": 1.0}
+               for m in eval_synthesis.METHODS}
         out["ours"]["swd"], out["random"]["swd"], out["random_g"]["swd"] = ours, rand, rand_g
+        out["ours"]["rep"], out["ours"]["rep_c"] = rep
         return out
 
-    results = [{"size": (8, 8), "sc": sc(1.0, 2.0, 0.5), "per_seed": [(1.0, 2.0)],
-                "rep_in": 0.1, "seconds": 1.0},
-               {"size": (8, 8), "sc": sc(1.0, 2.0, 3.0), "per_seed": [(1.0, 2.0)],
-                "rep_in": 0.1, "seconds": 1.0}]
+    results = [{"size": (8, 8), "sc": sc(1.0, 2.0, 0.5, (0.5, 0.79)), "per_seed": [(1.0, 2.0)],
+                "rep_in": {"rep": 0.4, "rep_c": 0.6}, "seconds": 1.0},
+               {"size": (8, 8), "sc": sc(1.0, 2.0, 3.0, (0.75, 0.75)), "per_seed": [(1.0, 2.0)],
+                "rep_in": {"rep": 0.4, "rep_c": 0.6}, "seconds": 1.0}]
     text = "\n".join(eval_synthesis.summary(results))
     assert "ours < random placement on patch-SWD: 2/2" in text
     assert "whole groups (random_g), on patch-SWD: 1/2" in text
+    # rep: 0.5 is nearer 0.4 than 1.0, 0.75 nearer 1.0; circular: 0.79 and 0.75 nearer 0.6
+    assert "input's: 1/2 (circular autocorrelation, biased by the canvas: 2/2)" in text
 
 
 def test_cvt_line_measures_pass_seamless_tiles_and_flag_cut_ones():
@@ -110,8 +143,9 @@ def test_the_inputs_own_wrap_is_read_by_the_same_line_statistics():
 
     whole = eval_synthesis.input_wrap(_field(True))
     cut = eval_synthesis.input_wrap(_field(False))
-    assert set(whole) == {"colour step", "patch SWD"}
-    assert whole["colour step"] <= 1.1 < cut["colour step"]
+    assert set(whole) == {"colour step", "colour step in phase", "patch SWD"}
+    for m in ("colour step", "colour step in phase"):  # no period in a random field
+        assert whole[m] <= 1.1 < cut[m]
     text = eval_synthesis.seam_text({"seam": 1.0, "seam_swd": 0.1, "inner_swd": 0.1,
                                      "inner_lines": np.array([0.1, 0.2]), "rank": 1,
                                      "ratios": {}, "input": whole})
