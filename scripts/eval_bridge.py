@@ -14,9 +14,11 @@ raster -> SVG tracer from PyPI, default settings) as an outside baseline.
 Vectorization: the SVG rasterized at the input size (resvg) vs the input: PSNR, SSIM; element
 count and SVG size; on procedural images also the true texton count and the matched IoU of the
 rasterized element shapes vs the true masks (neuraltex.metrics). ``--synth``: the 2x synthesis
-(cvt, ``--levels`` x ``--iterations``) rasterized vs the input by patch SWD x 1000 (as in the
-vector benchmark; ``ex_swd`` is the exemplar's own, the floor the synthesis inherits), its
-final energy and time. Means per pipeline and input kind at the end.
+as ``cvt synthesize --from-image`` makes it (the picture's lattice, if it repeats a tile, else
+cvt's pattern pipeline, ``--levels`` x ``--iterations``; ``lattice`` says which) rasterized
+vs the input by patch SWD x 1000 (as in the vector benchmark; ``ex_swd`` is the exemplar's
+own, the floor the synthesis inherits), its final energy and time. Means per pipeline and
+input kind at the end.
 """
 
 from __future__ import annotations
@@ -44,11 +46,12 @@ from neuraltex.vectorize import VectorizeParams, to_svg, vectorize  # noqa: E402
 REAL = ROOT / "data" / "real_textures"
 PIPELINES = ("model", "fit", "felzenszwalb", "vtracer")
 VECTOR_COLS = ("psnr", "ssim", "elements", "gt", "miou", "kib", "t_vec")
-SYNTH_COLS = ("ex_swd", "swd", "out_elements", "energy", "t_syn")
+SYNTH_COLS = ("ex_swd", "swd", "out_elements", "energy", "lattice", "t_syn")
 
 
-def inputs(limit: int, real: int, size: int):
-    """[(name, image (H, W, 3) float64 in [0, 1], true masks (H, W) or None)]."""
+def inputs(limit: int, real: int, size: int, only: list[str] | None = None):
+    """[(name, image (H, W, 3) float64 in [0, 1], true masks (H, W) or None)]; ``only``: these
+    real textures instead of the first ``real``."""
     from PIL import Image
 
     from neuraltex.data.splits import benchmark_split
@@ -57,7 +60,10 @@ def inputs(limit: int, real: int, size: int):
     for item in benchmark_split()[:limit]:
         s = generate_at(item, size)
         out.append((f"{item.family}-{item.index}", s.image.astype(np.float64), s.mask))
-    for path in sorted(REAL.glob("*.png"))[:real]:
+    paths = [REAL / f"{n}.png" for n in only] if only else sorted(REAL.glob("*.png"))[:real]
+    for path in paths:
+        if not path.exists():
+            raise SystemExit(f"no real texture {path.stem} in {REAL}")
         pic = Image.open(path).convert("RGB").resize((size, size), Image.LANCZOS)
         out.append((path.stem, np.asarray(pic, np.float64) / 255, None))
     return out
@@ -134,22 +140,39 @@ def vtracer_svg(image: np.ndarray) -> tuple[str, int]:
 
 
 def synth_row(image: np.ndarray, svg: str, args) -> dict:
+    """The 2x synthesis as ``cvt synthesize --from-image`` runs it: the picture's lattice
+    (neuraltex.raster_lattice, unless ``--no-lattice``) tiles the output with the exemplar's
+    cells, else cvt's pattern pipeline (the seed method, density repair) arranges the
+    elements freely; rasterized with the exemplar's backdrop."""
     from cvt.from_textons import image_exemplar, with_backdrop
-    from cvt.synthesis import SynthesisConfig, result_svg, synthesize
+    from cvt.pattern import PatternOptions, pattern_svg, synthesize_pattern
+    from cvt.synthesis import SynthesisConfig
+    from neuraltex.raster_lattice import raster_lattice
 
     ie = image_exemplar(svg)
     ex = ie.exemplar
     size = (ex.viewbox[2] * 2, ex.viewbox[3] * 2)
     cfg = SynthesisConfig(levels=args.levels, iterations=args.iterations, seed=args.seed,
                           init=args.init, w_a=args.w_a)
+    lattice = None if args.no_lattice else raster_lattice(image)
+    opts = PatternOptions(lattice=not args.no_lattice, basis=lattice)
     t = time.perf_counter()
-    res = synthesize(ex, size, cfg)
-    row = {"t_syn": time.perf_counter() - t, "out_elements": len(res.placements),
-           "energy": res.energies[-1][2] if res.energies else math.nan}
-    out = render_svg(with_backdrop(result_svg(ex, res), ie.backdrop))
+    pattern = synthesize_pattern(ex, size, cfg, "full", opts)
+    res = pattern.result
+    row = {"t_syn": time.perf_counter() - t, "out_elements": len(pattern.placements),
+           "energy": res.energies[-1][2] if res is not None and res.energies else math.nan,
+           "lattice": "no" if lattice is None else "yes"}
+    out = render_svg(with_backdrop(pattern_svg(ex, pattern, opts), ie.backdrop))
     row["swd"] = patch_swd(out, image)
     row["ex_swd"] = patch_swd(render_svg(svg), image)
     return row
+
+
+def _mean(values: list):
+    """The mean of a column (NaN where all are missing); of a yes / no column, "k/n" yes."""
+    if isinstance(values[0], str):
+        return f"{sum(v == 'yes' for v in values)}/{len(values)}"
+    return math.nan if all(math.isnan(v) for v in values) else float(np.nanmean(values))
 
 
 def _fmt(v) -> str:
@@ -172,15 +195,26 @@ def main() -> None:
                     help="what vectorizes (default: all)")
     ap.add_argument("--limit", type=int, default=8, help="procedural benchmark images")
     ap.add_argument("--real", type=int, default=25, help="real textures (data/real_textures)")
-    ap.add_argument("--size", type=int, default=128)
-    ap.add_argument("--source", choices=("masks", "splat"), default="masks")
-    ap.add_argument("--no-gradient", action="store_true")
-    ap.add_argument("--synth", action="store_true", help="also the 2x vector synthesis")
-    ap.add_argument("--levels", type=int, default=3)
-    ap.add_argument("--iterations", type=int, default=7)
-    ap.add_argument("--init", choices=("patch", "random", "gaussian"), default="patch")
+    ap.add_argument("--only", nargs="+", metavar="NAME",
+                    help="these real textures of data/real_textures instead of the first --real")
+    ap.add_argument("--size", type=int, default=128, help="input side in px (default 128)")
+    ap.add_argument("--source", choices=("masks", "splat"), default="masks",
+                    help="model pipeline: element shapes from the masks (default) or from the "
+                    "splatted Gaussians")
+    ap.add_argument("--no-gradient", action="store_true",
+                    help="flat-coloured elements (no linear gradient fills)")
+    ap.add_argument("--synth", action="store_true",
+                    help="also the 2x vector synthesis, as cvt synthesize --from-image runs it")
+    ap.add_argument("--no-lattice", action="store_true",
+                    help="--synth arranges freely even where the picture repeats a tile (as "
+                    "cvt synthesize --no-lattice)")
+    ap.add_argument("--levels", type=int, default=3, help="--synth: cvt levels (default 3)")
+    ap.add_argument("--iterations", type=int, default=7,
+                    help="--synth: iterations per level (default 7)")
+    ap.add_argument("--init", choices=("patch", "random", "gaussian"), default="patch",
+                    help="--synth: cvt's initialization (default patch)")
     ap.add_argument("--w-a", type=float, default=1.0, help="appearance (kind) weight")
-    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--seed", type=int, default=0, help="--synth: seed (default 0)")
     ap.add_argument("--out", help="also write the tables to this Markdown file")
     args = ap.parse_args()
     torch.set_num_threads(1)
@@ -190,7 +224,7 @@ def main() -> None:
     params = VectorizeParams(gradient=not args.no_gradient)
     cols = VECTOR_COLS + (SYNTH_COLS if args.synth else ())
     rows, results = [], []
-    data = inputs(args.limit, args.real, args.size)
+    data = inputs(args.limit, args.real, args.size, args.only)
     bar = tqdm([(d, p) for d in data for p in args.pipelines], file=sys.stderr, unit="run")
     for (name, image, gt), pipe in bar:
         bar.set_description(f"{name} / {pipe}")
@@ -205,13 +239,12 @@ def main() -> None:
         for pipe in args.pipelines:
             sel = [r for k, p, r in results if k == kind and p == pipe]
             if sel:
-                means.append([label, pipe] + [float(np.nanmean([r[c] for r in sel])) if
-                                              not all(math.isnan(r[c]) for r in sel) else math.nan
-                                              for c in cols])
+                means.append([label, pipe] + [_mean([r[c] for r in sel]) for c in cols])
     setting = (f"{args.size} px, source {args.source}, gradients "
                f"{'off' if args.no_gradient else 'on'}"
                + (f"; synthesis 2x, {args.levels} levels x {args.iterations} iterations, "
-                  f"init {args.init}, w_a {args.w_a:g}, seed {args.seed}" if args.synth else ""))
+                  f"init {args.init}, w_a {args.w_a:g}, seed {args.seed}"
+                  + (", no lattice" if args.no_lattice else "") if args.synth else ""))
     text = (f"Per input ({setting}):\n\n" + _table(["input", "pipeline", *cols], rows)
             + "\n\nMeans:\n\n" + _table(["inputs", "pipeline", *cols], means) + "\n")
     print(text)
