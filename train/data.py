@@ -17,8 +17,13 @@ def build_dataset(cfg, total_items: int) -> Dataset:
         from neuraltex.data.datasets import ProceduralTextures
 
         families = list(cfg.families) if cfg.families else None
-        return ProceduralTextures(total_items, size=cfg.size, seed=cfg.seed, families=families,
-                                  augment=augment)
+        ds = ProceduralTextures(total_items, size=cfg.size, seed=cfg.seed, families=families,
+                                augment=augment)
+        if cfg.get("cache"):  # the first items read from a folder written beforehand
+            from neuraltex.data.cache import CachedTextures
+
+            return CachedTextures(ds, cfg.cache)
+        return ds
     if cfg.kind == "folder":
         from neuraltex.data.datasets import ImageFolderTextures
 
