@@ -117,14 +117,16 @@ def recipe_step_times(root: str, recipe: str, size: int, batch: int, steps: int,
     sys.path.insert(0, str(HERE))
     from profile_train import build_parts, compose, step_settings
 
-    from train.data import batches, build_dataset
+    from train import data as train_data
     from train.loop import _batch, train_step
 
     cfg = compose(recipe, size, batch, extra, root=Path(root), threads=None if shipped else 1)
     torch.set_num_threads(int(cfg.trainer.threads or os.cpu_count()))
     parts = build_parts(cfg, init)
-    data = batches(build_dataset(cfg.data, 1000 * batch), batch, 0, 0, 1,
-                   cfg.data.num_workers)
+    dataset = train_data.build_dataset(cfg.data, 1000 * batch)
+    # as the tree's trainer chooses (no worker for a run read wholly from a data cache)
+    workers = getattr(train_data, "data_workers", lambda _, n: n)(dataset, cfg.data.num_workers)
+    data = train_data.batches(dataset, batch, 0, 0, 1, workers)
     times = []
     for step in range(1, warmup + steps + 1):  # R1 (every 16th) falls on step 16, 32, ...
         t0, c0 = time.perf_counter(), time.process_time()

@@ -194,7 +194,7 @@ def repetition(image: np.ndarray) -> float:
     dy = np.minimum(np.arange(2 * h), 2 * h - np.arange(2 * h))[:, None]  # (2h, 1) |shift|
     dx = np.minimum(np.arange(2 * w), 2 * w - np.arange(2 * w))[None]
     keep = (np.hypot(dy, dx) >= MIN_SHIFT) & (dy <= h // 2) & (dx <= w // 2)
-    return float(r[keep].max())
+    return float(min(r[keep].max(), 1.0))
 
 
 def repetition_circular(image: np.ndarray) -> float:

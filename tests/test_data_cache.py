@@ -81,7 +81,7 @@ def test_cli_writes_a_cache_and_rejects_bad_arguments(tmp_path, capsys):
 
 
 def test_training_reads_the_cache_given_in_the_data_config(tmp_path):
-    from train.data import build_dataset
+    from train.data import build_dataset, data_workers
 
     cfg = OmegaConf.create({"kind": "procedural", "seed": 0, "size": 32, "families": None,
                             "augment": True, "cache": str(tmp_path)})
@@ -90,3 +90,6 @@ def test_training_reads_the_cache_given_in_the_data_config(tmp_path):
     ds = build_dataset(cfg, 50)
     assert isinstance(ds, cache.CachedTextures) and ds.filled == 2
     assert torch.equal(ds[0]["mask"], ds.ds.item(0)["mask"])
+    # a worker only where items are still rendered: not for a run the cache covers
+    assert data_workers(ds, 1) == 1 and data_workers(build_dataset(cfg, 2), 1) == 0
+    assert data_workers(build_dataset(OmegaConf.merge(cfg, {"cache": None}), 2), 1) == 1

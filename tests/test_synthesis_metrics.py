@@ -107,6 +107,15 @@ def test_summary_counts_wins_over_the_stronger_random_placement():
     assert "whole groups (random_g), on patch-SWD: 1/2" in text
     # rep: 0.5 is nearer 0.4 than 1.0, 0.75 nearer 1.0; circular: 0.79 and 0.75 nearer 0.6
     assert "input's: 1/2 (circular autocorrelation, biased by the canvas: 2/2)" in text
+    # an input that repeats exactly: input, tiling and ours read 1 to the last bits, a tie
+    tie = {"sc": sc(1.0, 2.0, 3.0, (1.0, 1.0)), "rep_in": {"rep": 1 - 2e-16, "rep_c": 1.0}}
+    tie["sc"]["tiling"]["rep"] = 1 + 2e-16
+    assert eval_synthesis.not_repeating(tie)
+    tie["rep_in"]["rep"], tie["sc"]["tiling"]["rep"] = 0.9, 1.0
+    tie["sc"]["ours"]["rep"] = 0.9502  # nearer the tiling by 0.0004: below the precision
+    assert eval_synthesis.not_repeating(tie)
+    tie["sc"]["ours"]["rep"] = 0.952  # by 0.004
+    assert not eval_synthesis.not_repeating(tie)
 
 
 def test_cvt_line_measures_pass_seamless_tiles_and_flag_cut_ones():

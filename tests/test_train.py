@@ -253,3 +253,22 @@ def test_building_on_cpu_flushes_subnormal_floats(tmp_path):
 
     common.load(None)
     assert float(tiny.float() * 1.0) == 0.0
+
+
+def test_a_run_from_the_data_cache_trains_on_the_same_items(tmp_path):
+    """data.cache=DIR: the items come from the folder (python -m neuraltex.data.cache), the
+    same as rendered up to 8 bits, so the run's losses match a rendering run's closely."""
+    from omegaconf import OmegaConf
+
+    from neuraltex.data.cache import write_cache
+    from train.data import build_dataset
+
+    cfg = _cfg(tmp_path / "a", "trainer.max_steps=2", "trainer.export=null")
+    write_cache(build_dataset(cfg.data, 1), tmp_path / "cache",
+                2 * cfg.trainer.batch_size, workers=0, progress=False)
+    rendered = run(cfg)
+    cached = run(_cfg(tmp_path / "b", "trainer.max_steps=2", "trainer.export=null",
+                      f"data.cache={tmp_path / 'cache'}"))
+    assert OmegaConf.select(cfg, "data.cache") is None
+    assert cached["recon"] == pytest.approx(rendered["recon"], rel=0.02)
+    assert cached["recon"] != rendered["recon"]  # 8-bit images: not bit-identical

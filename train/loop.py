@@ -21,7 +21,7 @@ from omegaconf import DictConfig, OmegaConf
 from tqdm import tqdm
 
 from neuraltex.checkpoint import save_training_checkpoint
-from train.data import batches, build_dataset, crop_batch
+from train.data import batches, build_dataset, crop_batch, data_workers
 from train.export import export
 from train.logging import Logger
 from train.loss_config import StepSettings
@@ -51,7 +51,8 @@ def run(cfg: DictConfig) -> dict[str, float]:
     parts = build(cfg, device, world)
     progress = restore(parts, T, run_dir)
     dataset = build_dataset(cfg.data, max(T.max_steps, 1) * T.batch_size * world)
-    data = batches(dataset, T.batch_size, progress.start, rank, world, cfg.data.num_workers)
+    data = batches(dataset, T.batch_size, progress.start, rank, world,
+                   data_workers(dataset, cfg.data.num_workers))
     lpips = parts.gen.recon.lpips
     logger = Logger(run_dir, enabled=rank == 0,
                     backbone=lpips.backbone_used if lpips is not None else "off")
