@@ -93,3 +93,24 @@ def test_training_reads_the_cache_given_in_the_data_config(tmp_path):
     # a worker only where items are still rendered: not for a run the cache covers
     assert data_workers(ds, 1) == 1 and data_workers(build_dataset(cfg, 2), 1) == 0
     assert data_workers(build_dataset(OmegaConf.merge(cfg, {"cache": None}), 2), 1) == 1
+
+
+def test_a_damaged_cache_is_one_error(tmp_path):
+    ds = _ds()
+    cache.write_cache(ds, tmp_path, 3, workers=0, progress=False)
+    meta = json.loads((tmp_path / "meta.json").read_text())
+    (tmp_path / "meta.json").write_text(json.dumps({**meta, "filled": 5}))  # beyond the arrays
+    with pytest.raises(InputError, match="damaged"):
+        cache.CachedTextures(ds, tmp_path)
+    (tmp_path / "meta.json").write_text(json.dumps(meta))
+    np.save(tmp_path / "families.npy", np.full(3, 200, np.uint8))
+    with pytest.raises(InputError, match="unknown family"):
+        cache.CachedTextures(ds, tmp_path)
+    (tmp_path / "masks.npy").write_bytes(b"not an array")
+    with pytest.raises(InputError, match="unreadable"):
+        cache.CachedTextures(ds, tmp_path)
+    with pytest.raises(InputError, match="unreadable"):  # nor resumed
+        cache.write_cache(ds, tmp_path, 3, workers=0, progress=False)
+    (tmp_path / "meta.json").write_text("{")
+    with pytest.raises(InputError, match="meta.json"):
+        cache.CachedTextures(ds, tmp_path)

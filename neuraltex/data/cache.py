@@ -128,9 +128,12 @@ def write_cache(ds: ProceduralTextures, folder: str | Path, items: int, workers:
     shapes = {"images": ((items, s, s, 3), np.uint8), "masks": ((items, s, s), np.uint16),
               "families": ((items,), np.uint8)}
     mode = "r+" if meta is not None else "w+"
-    arrays = {k: np.lib.format.open_memmap(folder / f"{k}.npy", mode=mode, dtype=dt, shape=sh)
-              for k, (sh, dt) in shapes.items()}
-    done = meta["filled"] if meta is not None else 0
+    try:
+        arrays = {k: np.lib.format.open_memmap(folder / f"{k}.npy", mode=mode, dtype=dt,
+                                               shape=sh) for k, (sh, dt) in shapes.items()}
+    except (OSError, ValueError) as exc:
+        raise InputError(f"data cache {folder}: unreadable ({exc})") from exc
+    done = _filled(meta, arrays, s, folder) if meta is not None else 0
     bar = tqdm(total=items, initial=done, desc="data cache", unit="item", disable=not progress)
     while done < items:
         stop = min(done + CHUNK, items)
@@ -149,6 +152,21 @@ def write_cache(ds: ProceduralTextures, folder: str | Path, items: int, workers:
     return done
 
 
+def _filled(meta: dict, arrays: dict, size: int, folder: Path) -> int:
+    """meta.json's count of written items, checked against the arrays' shapes and types."""
+    n, filled = meta.get("items"), meta.get("filled")
+    want = {"images": ((n, size, size, 3), np.uint8), "masks": ((n, size, size), np.uint16),
+            "families": ((n,), np.uint8)}
+    bad = [k for k, (shape, dt) in want.items()
+           if arrays[k].shape != shape or arrays[k].dtype != dt]
+    if not isinstance(filled, int) or not isinstance(n, int) or not 0 <= filled <= n or bad:
+        raise InputError(f"data cache {folder}: damaged (meta.json's counts or "
+                         f"{', '.join(bad) or 'its arrays'} do not match); write a new one")
+    if filled and int(arrays["families"][:filled].max()) >= len(FAMILY_NAMES):
+        raise InputError(f"data cache {folder}: damaged (unknown family ids)")
+    return filled
+
+
 class CachedTextures(Dataset):
     """``ds`` (a :class:`ProceduralTextures`) whose first items are read from a folder
     written by :func:`write_cache` (memory-mapped; the same dicts as ``ds.item``, the image
@@ -161,16 +179,22 @@ class CachedTextures(Dataset):
             raise InputError(f"data cache {folder}: no meta.json (write one with "
                              "python -m neuraltex.data.cache)")
         _check(meta, describe(ds), folder)
-        self.ds, self.folder, self.filled = ds, folder, int(meta["filled"])
+        self.ds, self.folder = ds, folder
         self._arrays = None  # opened lazily: each DataLoader worker maps the files itself
+        self.filled = _filled(meta, self._open(), ds.size, folder)
+        self._arrays = None
 
     def __len__(self) -> int:
         return len(self.ds)
 
     def _open(self) -> dict:
         if self._arrays is None:
-            self._arrays = {k: np.load(self.folder / f"{k}.npy", mmap_mode="r")
-                            for k in ("images", "masks", "families")}
+            try:
+                self._arrays = {k: np.load(self.folder / f"{k}.npy", mmap_mode="r",
+                                           allow_pickle=False)
+                                for k in ("images", "masks", "families")}
+            except (OSError, ValueError) as exc:
+                raise InputError(f"data cache {self.folder}: unreadable ({exc})") from exc
         return self._arrays
 
     def __getitem__(self, index: int) -> dict:
