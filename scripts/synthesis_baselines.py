@@ -172,7 +172,9 @@ def repetition(image: np.ndarray) -> float:
     """Highest correlation of the grey picture (H, W, 3) with itself shifted by (dy, dx),
     hypot(dy, dx) >= MIN_SHIFT, |dy| <= H / 2, |dx| <= W / 2: Pearson's r over the pixels
     both cover (at least a quarter of the picture), with that overlap's own means and
-    deviations. All sums over the overlaps come from zero-padded FFT correlations."""
+    deviations (the lattice detector's ncc, neuraltex.raster_lattice, removes the picture's
+    mean instead, so an overlap on flat ground reads 1 there; here it reads 0). All sums over
+    the overlaps come from zero-padded FFT correlations."""
     grey = image.mean(-1).astype(np.float64)
     grey = grey - grey.mean()
     h, w = grey.shape

@@ -63,8 +63,9 @@ def test_repetition_reads_the_texture_not_the_canvas():
     stripes = np.sin(2 * np.pi * np.arange(64) / 10)[None, :, None] * np.ones((64, 1, 3))
     assert base.repetition(stripes) > 0.99  # 20 px: twice the period
     lone = np.zeros((64, 64, 3))
-    lone[20:30, 20:30] = 1.0  # one square: no shift puts it on itself
-    assert base.repetition(lone) < 0.2
+    lone[20:30, 20:30] = 1.0  # one square: no shift puts it on itself (nor flat ground on
+    assert base.repetition(lone) < 0.2  # flat ground: that correlates with nothing)
+    assert base.repetition(np.full((64, 64, 3), 0.5)) == 0.0  # flat: nothing to correlate
 
 
 def test_scores_of_several_seeds_are_averaged_per_method_and_measure():
