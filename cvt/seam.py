@@ -222,6 +222,11 @@ def step_profile(image: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
                  for axis in (1, 0))
 
 
+def _beside(near: int) -> np.ndarray:
+    """Offsets of the lines 1 ... ``near`` px either side of a line. Shape: (2 near,)."""
+    return np.r_[-np.arange(1, near + 1), np.arange(1, near + 1)]
+
+
 def step_ratio(profile: np.ndarray, at: np.ndarray, near: int = NEAR,
                offsets: np.ndarray | None = None) -> np.ndarray:
     """The colour step across line ``at`` over the mean step across the lines 1 ... ``near``
@@ -230,7 +235,7 @@ def step_ratio(profile: np.ndarray, at: np.ndarray, near: int = NEAR,
     of variation 0.5-0.7; this ratio 0.2-0.5 on the emoji tiles). ``offsets``: the lines to
     compare with instead, relative to ``at`` (:func:`step_offsets`). Shape: (n,), (D,) -> (D,)."""
     at = np.asarray(at)
-    side = np.r_[-np.arange(1, near + 1), np.arange(1, near + 1)] if offsets is None else offsets
+    side = _beside(near) if offsets is None else offsets
     ctrl = profile[(at[:, None] + np.asarray(side)[None]) % len(profile)].mean(1)
     return profile[at] / np.maximum(ctrl, STEP_FLOOR)
 
@@ -243,7 +248,7 @@ def step_offsets(image: np.ndarray, axis: int, near: int = NEAR) -> np.ndarray:
     border's grout or colour change, one a pixel beside it does not); else the lines 1 ...
     ``near`` px either side. Shape: (H, W, 3) -> (L,)."""
     t = periods(image, axis)
-    return t if len(t) else np.r_[-np.arange(1, near + 1), np.arange(1, near + 1)]
+    return t if len(t) else _beside(near)
 
 
 @dataclass(frozen=True)
@@ -279,7 +284,7 @@ def seam_step(image: np.ndarray, near: int = NEAR) -> tuple[float, float]:
     in a seamless tiling the seam line is a line like its neighbours, so the two are about
     equal; an extra column beside :func:`seam_ratio`.
     """
-    side = np.r_[-np.arange(1, near + 1), np.arange(1, near + 1)]
+    side = _beside(near)
     profiles = step_profile(image)
     return (float(np.mean([p[0] for p in profiles])),
             float(np.mean([p[side].mean() for p in profiles])))
