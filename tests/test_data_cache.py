@@ -111,6 +111,7 @@ def test_a_damaged_cache_is_one_error(tmp_path):
         cache.CachedTextures(ds, tmp_path)
     with pytest.raises(InputError, match="unreadable"):  # nor resumed
         cache.write_cache(ds, tmp_path, 3, workers=0, progress=False)
-    (tmp_path / "meta.json").write_text("{")
-    with pytest.raises(InputError, match="meta.json"):
-        cache.CachedTextures(ds, tmp_path)
+    for text in ("{", "[1, 2]"):
+        (tmp_path / "meta.json").write_text(text)
+        with pytest.raises(InputError, match="meta.json"):
+            cache.CachedTextures(ds, tmp_path)

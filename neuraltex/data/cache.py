@@ -61,11 +61,14 @@ def describe(ds: ProceduralTextures) -> dict:
 
 def _read_meta(folder: Path) -> dict | None:
     try:
-        return json.loads((folder / "meta.json").read_text())
+        meta = json.loads((folder / "meta.json").read_text())
     except FileNotFoundError:
         return None
     except (OSError, ValueError) as exc:
         raise InputError(f"data cache {folder}: unreadable meta.json ({exc})") from exc
+    if not isinstance(meta, dict):
+        raise InputError(f"data cache {folder}: meta.json is not an object")
+    return meta
 
 
 def _check(meta: dict, want: dict, folder: Path) -> None:
@@ -120,8 +123,8 @@ def write_cache(ds: ProceduralTextures, folder: str | Path, items: int, workers:
     meta = _read_meta(folder)
     if meta is not None:
         _check(meta, want, folder)
-        if meta["items"] != items:
-            raise InputError(f"data cache {folder} was started with {meta['items']} items; "
+        if meta.get("items") != items:
+            raise InputError(f"data cache {folder} was started with {meta.get('items')} items; "
                              "give the same --items or a new folder")
     folder.mkdir(parents=True, exist_ok=True)
     s = ds.size
