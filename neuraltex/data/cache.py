@@ -83,8 +83,12 @@ def _check_space(folder: Path, need: int) -> None:
     existing = next(p for p in (folder, *folder.absolute().parents) if p.exists())
     free = shutil.disk_usage(existing).free
     if need > free:
-        raise InputError(f"the data cache needs {need / 2**30:.1f} GiB; {existing} has "
-                         f"{free / 2**30:.1f} GiB free")
+        raise InputError(f"the data cache needs {_size(need)}; {existing} has {_size(free)} "
+                         "free")
+
+
+def _size(n: int) -> str:
+    return f"{n / 2**30:.1f} GiB" if n >= 2**30 else f"{n / 2**20:.1f} MiB"
 
 
 class _Items(Dataset):
@@ -126,7 +130,10 @@ def write_cache(ds: ProceduralTextures, folder: str | Path, items: int, workers:
         if meta.get("items") != items:
             raise InputError(f"data cache {folder} was started with {meta.get('items')} items; "
                              "give the same --items or a new folder")
-    folder.mkdir(parents=True, exist_ok=True)
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise InputError(f"data cache {folder}: cannot create it ({exc.strerror})") from exc
     s = ds.size
     shapes = {"images": ((items, s, s, 3), np.uint8), "masks": ((items, s, s), np.uint16),
               "families": ((items,), np.uint8)}
@@ -138,20 +145,25 @@ def write_cache(ds: ProceduralTextures, folder: str | Path, items: int, workers:
         raise InputError(f"data cache {folder}: unreadable ({exc})") from exc
     done = _filled(meta, arrays, s, folder) if meta is not None else 0
     bar = tqdm(total=items, initial=done, desc="data cache", unit="item", disable=not progress)
-    while done < items:
-        stop = min(done + CHUNK, items)
-        loader = DataLoader(_Items(ds, done, stop), batch_size=None, num_workers=workers)
-        for k, (image, mask, family) in enumerate(loader):
-            arrays["images"][done + k] = image
-            arrays["masks"][done + k] = mask
-            arrays["families"][done + k] = family
-            bar.update(1)
-        for a in arrays.values():
-            a.flush()
-        done = stop
-        write_text_atomic(folder / "meta.json", json.dumps({**want, "items": items,
-                                                             "filled": done}, indent=1))
-    bar.close()
+    try:
+        while done < items:
+            stop = min(done + CHUNK, items)
+            loader = DataLoader(_Items(ds, done, stop), batch_size=None, num_workers=workers)
+            for k, (image, mask, family) in enumerate(loader):
+                arrays["images"][done + k] = image
+                arrays["masks"][done + k] = mask
+                arrays["families"][done + k] = family
+                bar.update(1)
+            for a in arrays.values():
+                a.flush()
+            done = stop  # meta.json last: a chunk counts once it is on disk
+            write_text_atomic(folder / "meta.json", json.dumps({**want, "items": items,
+                                                                 "filled": done}, indent=1))
+    except OSError as exc:  # e.g. the disk filled up: what is written stays resumable
+        raise InputError(f"data cache {folder}: writing failed after {done} items "
+                         f"({exc.strerror or exc}); the same command resumes") from exc
+    finally:
+        bar.close()
     return done
 
 
