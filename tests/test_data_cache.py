@@ -115,3 +115,21 @@ def test_a_damaged_cache_is_one_error(tmp_path):
         (tmp_path / "meta.json").write_text(text)
         with pytest.raises(InputError, match="meta.json"):
             cache.CachedTextures(ds, tmp_path)
+
+
+def test_a_failed_write_is_one_error_and_the_written_chunks_resume(tmp_path, monkeypatch):
+    monkeypatch.setattr(cache, "CHUNK", 2)
+    real, calls = cache.write_text_atomic, []
+
+    def full_disk(path, text):  # the second chunk's meta.json finds the disk full
+        calls.append(path)
+        if len(calls) == 2:
+            raise OSError(28, "No space left on device")
+        real(path, text)
+
+    monkeypatch.setattr(cache, "write_text_atomic", full_disk)
+    with pytest.raises(InputError, match="after 2 items .*No space left.*resumes"):
+        cache.write_cache(_ds(), tmp_path, 5, workers=0, progress=False)
+    assert cache.CachedTextures(_ds(), tmp_path).filled == 2  # the first chunk counts
+    assert cache.write_cache(_ds(), tmp_path, 5, workers=0, progress=False) == 5
+    assert cache.CachedTextures(_ds(), tmp_path).filled == 5

@@ -156,9 +156,10 @@ def write_cache(ds: ProceduralTextures, folder: str | Path, items: int, workers:
                 bar.update(1)
             for a in arrays.values():
                 a.flush()
-            done = stop  # meta.json last: a chunk counts once it is on disk
+            # meta.json last: a chunk counts once it is on disk
             write_text_atomic(folder / "meta.json", json.dumps({**want, "items": items,
-                                                                 "filled": done}, indent=1))
+                                                                 "filled": stop}, indent=1))
+            done = stop
     except OSError as exc:  # e.g. the disk filled up: what is written stays resumable
         raise InputError(f"data cache {folder}: writing failed after {done} items "
                          f"({exc.strerror or exc}); the same command resumes") from exc
