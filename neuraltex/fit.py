@@ -278,8 +278,8 @@ def tuning(G: nn.Module, textons: Textons, offsets: Tensor, cfg: FitSettings
     fa = nn.Parameter(textons.f.detach().clone())
     d = nn.Parameter(offsets.detach().clone())
     opt = adam([{"params": list(G.parameters()), "lr": cfg.lr},
-                            {"params": [fa], "lr": cfg.lr_features},
-                            {"params": [d], "lr": cfg.lr_offsets}])
+                {"params": [fa], "lr": cfg.lr_features},
+                {"params": [d], "lr": cfg.lr_offsets}])
     return (lambda: replace(textons, f=torch.cat([F.normalize(fa, dim=-1), d], dim=-1))), opt
 
 

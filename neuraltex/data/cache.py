@@ -195,10 +195,9 @@ class CachedTextures(Dataset):
             raise InputError(f"data cache {folder}: no meta.json (write one with "
                              "python -m neuraltex.data.cache)")
         _check(meta, describe(ds), folder)
-        self.ds, self.folder = ds, folder
-        self._arrays = None  # opened lazily: each DataLoader worker maps the files itself
+        self.ds, self.folder, self._arrays = ds, folder, None
         self.filled = _filled(meta, self._open(), ds.size, folder)
-        self._arrays = None
+        self._arrays = None  # mapped again lazily: each DataLoader worker maps its own
 
     def __len__(self) -> int:
         return len(self.ds)
