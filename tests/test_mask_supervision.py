@@ -112,3 +112,35 @@ def test_logits_take_the_softmax_after_the_point_sampling():
         assert torch.allclose(g_first, g_late, atol=1e-12)
         if points:  # only the sampled pixels get a gradient
             assert 0 < int((g_late.abs().sum(1) > 0).sum()) <= 2 * points
+
+
+def test_closed_form_gradient_where_the_clamps_cut_and_under_the_reference():
+    """Near-one-hot masks (many probabilities below eps = 1e-6 and above 1 - eps, where the
+    BCE's clamps cut the gradient): the loss and its closed-form gradient equal autograd
+    through the per-image reference."""
+    torch.manual_seed(1)
+    labels = torch.randint(0, 4, (2, 9, 9))
+    logits = (torch.randn(2, 6, 9, 9, dtype=torch.float64) * 12).requires_grad_()
+    S = logits.softmax(1)
+    assert ((S < 1e-6).sum() > 50) and ((S > 1 - 1e-6).sum() > 10)
+    fast = mask_supervision_loss(S, labels)
+    (g_fast,) = torch.autograd.grad(fast, logits)
+    ref = _reference_loss(logits.softmax(1), labels)
+    (g_ref,) = torch.autograd.grad(ref, logits)
+    assert torch.allclose(fast, ref, atol=1e-10)
+    assert torch.allclose(g_fast, g_ref, atol=1e-10)
+
+
+def test_gradient_checks_with_dropped_segments_unmatched_queries_and_points():
+    """gradcheck (float64, finite differences) of the loss with more labels than queries (the
+    smallest dropped), queries left unmatched in another image, and sampled points."""
+    torch.manual_seed(2)
+    labels = torch.randint(0, 7, (2, 8, 8))  # 7 labels, 5 queries: two dropped in image 0
+    labels[1] = labels[1] % 2  # 2 segments: 3 queries unmatched
+    logits = torch.randn(2, 5, 8, 8, dtype=torch.float64, requires_grad=True)
+
+    def loss(x):
+        return mask_supervision_loss(x, labels, 40, torch.Generator().manual_seed(0),
+                                     logits=True)
+
+    assert torch.autograd.gradcheck(loss, (logits,), eps=1e-6, atol=1e-7)
