@@ -24,6 +24,7 @@ so those layers' query/key projections get no gradient from that level (harmless
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass, field
 from typing import Literal
@@ -120,20 +121,31 @@ class FPNPixelDecoder(nn.Module):
 def sine_position_encoding(h: int, w: int, dim: int, device=None, dtype=None) -> torch.Tensor:
     """DETR-style normalised sine/cosine encoding of pixel centres. Shape: (dim, h, w).
 
-    Coordinates are normalised to [0, 2*pi] so the encoding is resolution-independent.
+    Coordinates are normalised to [0, 2*pi] so the encoding is resolution-independent. A
+    constant of its arguments, computed once per (h, w, dim, device, dtype): callers must not
+    write into it.
     """
-    npf = dim // 2
-    y = (torch.arange(h, device=device, dtype=torch.float32) + 0.5) / h * 2 * math.pi
-    x = (torch.arange(w, device=device, dtype=torch.float32) + 0.5) / w * 2 * math.pi
-    k = torch.arange(npf, device=device)
-    freq = 10000 ** (2 * (k // 2) / npf)  # (npf,) DETR frequencies
-    even = (k % 2 == 0)  # sin on even channels, cos on odd ones
-    py, px = y[:, None] / freq, x[:, None] / freq  # (h, npf), (w, npf)
-    py = torch.where(even, py.sin(), py.cos())  # (h, npf)
-    px = torch.where(even, px.sin(), px.cos())  # (w, npf)
-    pos = torch.cat((py[:, None, :].expand(h, w, npf), px[None, :, :].expand(h, w, npf)), dim=2)
-    pos = F.pad(pos, (0, dim - 2 * npf))  # odd dim: one zero channel
-    return pos.permute(2, 0, 1).to(dtype or torch.float32)  # (dim, h, w)
+    return _sine_position_encoding(h, w, dim, torch.device(device or "cpu"),
+                                   dtype or torch.float32)
+
+
+@functools.lru_cache(maxsize=64)
+def _sine_position_encoding(h: int, w: int, dim: int, device: torch.device,
+                            dtype: torch.dtype) -> torch.Tensor:
+    with torch.inference_mode(False), torch.no_grad():  # a plain tensor, also when first
+        npf = dim // 2                                   # asked for under inference mode
+        y = (torch.arange(h, device=device, dtype=torch.float32) + 0.5) / h * 2 * math.pi
+        x = (torch.arange(w, device=device, dtype=torch.float32) + 0.5) / w * 2 * math.pi
+        k = torch.arange(npf, device=device)
+        freq = 10000 ** (2 * (k // 2) / npf)  # (npf,) DETR frequencies
+        even = (k % 2 == 0)  # sin on even channels, cos on odd ones
+        py, px = y[:, None] / freq, x[:, None] / freq  # (h, npf), (w, npf)
+        py = torch.where(even, py.sin(), py.cos())  # (h, npf)
+        px = torch.where(even, px.sin(), px.cos())  # (w, npf)
+        pos = torch.cat((py[:, None, :].expand(h, w, npf), px[None, :, :].expand(h, w, npf)),
+                        dim=2)
+        pos = F.pad(pos, (0, dim - 2 * npf))  # odd dim: one zero channel
+        return pos.permute(2, 0, 1).to(dtype).contiguous()  # (dim, h, w)
 
 
 # ----------------------------------------------------------------------------- transformer
@@ -250,10 +262,10 @@ class AnchorPrior(nn.Module):
         out = self.head(queries)  # (B, n, 3)
         centre = self.anchors + 2 * torch.tanh(out[..., :2]) * self.cell  # (B, n, 2)
         spread = 0.6 * torch.exp(out[..., 2].clamp(-2, 2))  # (B, n) in cells
-        ys = (torch.arange(h, device=queries.device) + 0.5) / (h * valid[0])
-        xs = (torch.arange(w, device=queries.device) + 0.5) / (w * valid[1])
-        dx = (xs.to(queries) - centre[..., 0, None]) / self.cell[0]  # (B, n, w)
-        dy = (ys.to(queries) - centre[..., 1, None]) / self.cell[1]  # (B, n, h)
+        ys = _cell_centres(h, valid[0], queries.device, queries.dtype)  # (h,)
+        xs = _cell_centres(w, valid[1], queries.device, queries.dtype)  # (w,)
+        dx = (xs - centre[..., 0, None]) / self.cell[0]  # (B, n, w)
+        dy = (ys - centre[..., 1, None]) / self.cell[1]  # (B, n, h)
         inv = 1 / (2 * spread[..., None] ** 2)  # (B, n, 1)
         return dy ** 2 * inv, dx ** 2 * inv
 
@@ -262,6 +274,15 @@ class AnchorPrior(nn.Module):
         ty, tx = self.terms(queries, size, valid)
         # separable: one full-size (B, n, h, w) op instead of four
         return -ty[..., :, None] - tx[..., None, :]
+
+
+@functools.lru_cache(maxsize=64)
+def _cell_centres(size: int, valid: float, device: torch.device, dtype: torch.dtype
+                  ) -> torch.Tensor:
+    """(size,) pixel centres of a side in units of its unpadded ``valid`` fraction: the
+    anchor prior's coordinates, a constant (callers must not write into it)."""
+    with torch.inference_mode(False), torch.no_grad():
+        return ((torch.arange(size, device=device) + 0.5) / (size * valid)).to(dtype)
 
 
 # ----------------------------------------------------------------------------- the head
