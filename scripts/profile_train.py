@@ -45,7 +45,9 @@ def compose(recipe: str, size: int, batch: int, extra: list[str], root: Path = R
 
     over = [f"experiment={RECIPES[recipe]}", f"trainer.batch_size={batch}",
             "trainer.init_from=null", "trainer.init_parts={}", "trainer.resume=null",
-            "run_dir=/nonexistent"] + ([f"trainer.threads={threads}"] if threads else [])
+            "run_dir=/nonexistent"]
+    if threads and not any(o.startswith("trainer.threads=") for o in extra):
+        over.append(f"trainer.threads={threads}")  # unless the caller sets it
     if recipe == "segmenter":
         over += [f"model.image_size={size}", f"model.estimation_size={size // 2}"]
     else:
@@ -176,6 +178,7 @@ def profile(recipe: str, size: int, batch: int, steps: int, extra: list[str],
     from train.data import batches, build_dataset
 
     cfg = compose(recipe, size, batch, extra, root)
+    torch.set_num_threads(int(cfg.trainer.threads or 1))  # 1, or --set trainer.threads=N
     parts = build_parts(cfg, init)
     stack = contextlib.ExitStack()
     label_parts(parts, stack)
@@ -235,15 +238,16 @@ def main(argv: list[str] | None = None) -> int:
     args = ap.parse_args(argv)
     root = Path(args.root).resolve() if args.root else ROOT
     sys.path.insert(0, str(root))
-    torch.set_num_threads(1)
-    results = {}
+    results, threads = {}, set()
     with contextlib.ExitStack() as stack:
+        stack.callback(torch.set_num_threads, torch.get_num_threads())  # the caller's, after
         label_step_phases(stack)
         for recipe in args.recipes.split(","):
             for size in args.sizes:
                 name = f"{recipe} {size} px"
                 results[name] = profile(recipe, size, args.batch, args.steps, args.set, root,
                                         args.init)
+                threads.add(torch.get_num_threads())  # as the profile set them
                 print(f"{name}: {results[name][1]:.3f} s/step", file=sys.stderr)
     command = "python scripts/profile_train.py " + " ".join(argv if argv is not None
                                                              else sys.argv[1:])
@@ -251,7 +255,8 @@ def main(argv: list[str] | None = None) -> int:
 
     tree = Path(train.__file__).resolve().parents[1]
     text = (f"Share of a training step per part (`{command.strip()}`, code of {tree}; torch "
-            f"{torch.__version__}, 1 thread, batch {args.batch}, mean of {args.steps} steps)."
+            f"{torch.__version__}, {'/'.join(map(str, sorted(threads)))} thread(s), "
+            f"batch {args.batch}, mean of {args.steps} steps)."
             f"\n\n{table(results)}\n")
     print(text)
     if args.markdown:

@@ -222,13 +222,17 @@ def test_profile_script_table_and_restores_what_it_labels(tmp_path):
     backward, loss = torch.Tensor.backward, train.objective.mask_supervision_loss
     md = tmp_path / "p.md"
     weights = Path(__file__).resolve().parents[1] / "neuraltex" / "weights" / "default.safetensors"
+    threads = torch.get_num_threads()
     assert profile_train.main(["--recipes", "segmenter", "--sizes", "64", "--batch", "2",
                                "--steps", "1", "--set", "data.num_workers=0",
+                               f"trainer.threads={threads + 1}",
                                "--init", str(weights), "--markdown", str(md)]) == 0
+    assert torch.get_num_threads() == threads  # the caller's thread count is restored
     with pytest.raises(Exception, match="missing.safetensors"):  # --init is loaded
         profile_train.main(["--recipes", "segmenter", "--sizes", "64", "--batch", "2",
                             "--steps", "1", "--init", str(tmp_path / "missing.safetensors")])
     text = md.read_text()
+    assert f"{threads + 1} thread(s)" in text  # the step ran on the threads it was given
     for row in ("| backward |", "| E_s transformer layers |", "| loss mask: pairwise cost |",
                 "| optimizer |", "**other**"):
         assert row in text, row
