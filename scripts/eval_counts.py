@@ -66,6 +66,8 @@ def main() -> None:
     add_texture_options(p)
     p.add_argument("--checkpoint", type=Path, help="another E_s export to count beside the "
                    "shipped model's")
+    p.add_argument("--pictures", type=Path, help="also write a PNG of what is counted: a row "
+                   "per texture, the picture then each segmenter's segments in colour")
     args = p.parse_args()
     with open(args.textures / "counts.csv", newline="") as f:
         counts = [(r["file"], int(r["elements"])) for r in csv.DictReader(f)]
@@ -78,10 +80,13 @@ def main() -> None:
     head = ["texture", "hand count", *methods, "fit textons", "fit elements"]
     print("| " + " | ".join(head) + " |\n|" + "---|" * len(head))
     ratios: dict[str, list[float]] = {h: [] for h in head[2:]}
+    rows = []
     for name, hand in counts:
         image = load_image(args.textures / name)
         arr = image.permute(1, 2, 0).numpy().astype(np.float64)
-        found = {m: segments(seg(arr), skip) for m, (seg, skip) in methods.items()}
+        labels = {m: seg(arr) for m, (seg, _) in methods.items()}
+        found = {m: segments(labels[m], skip) for m, (_, skip) in methods.items()}
+        rows.append(picture_row(arr, labels, methods))
         ntex = texture_file(args.textures / name, args.cache, args.steps)
         found["fit textons"], found["fit elements"] = fitted(model, ntex)
         for m, n in found.items():
@@ -90,6 +95,26 @@ def main() -> None:
               + " | ".join(f"{n} ({n / hand:.2f}x)" for n in found.values()) + " |", flush=True)
     print("| **mean per element** | | " + " | ".join(f"{np.mean(r):.2f}x" for r in
                                                      ratios.values()) + " |")
+    if args.pictures:
+        from PIL import Image
+
+        from neuraltex.imageio import save_pil, stack_rows
+
+        save_pil(stack_rows([Image.fromarray(r) for r in rows], gap=4), args.pictures)
+        print(f"wrote {args.pictures}: a row per texture; picture | "
+              + " | ".join(methods) + " (label 0 of E_s, no texton, left grey)")
+
+
+def picture_row(image: np.ndarray, labels: dict[str, np.ndarray], methods) -> np.ndarray:
+    """(H, W * (1 + methods), 3) uint8: the picture, then each method's segments coloured over
+    its grey (E_s's label 0, pixels of no texton, stays grey)."""
+    from skimage.color import label2rgb
+
+    grey = image.mean(2)
+    tiles = [image] + [label2rgb(labels[m], image=grey, alpha=0.55,
+                                 bg_label=0 if skip else -1, bg_color=None)
+                       for m, (_, skip) in methods.items()]
+    return (np.concatenate(tiles, axis=1).clip(0, 1) * 255).astype(np.uint8)
 
 
 if __name__ == "__main__":

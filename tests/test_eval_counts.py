@@ -28,3 +28,19 @@ def test_segments_counts_only_big_enough_labels_and_skips_no_texton():
     labels[0, 99] = 3  # one pixel: below MIN_SHARE (10 of 10,000)
     assert eval_counts.segments(labels, skip_zero=True) == 2
     assert eval_counts.segments(labels, skip_zero=False) == 3  # 0 is a segment of its own
+
+
+def test_picture_row_shows_the_picture_then_each_methods_segments():
+    rng = np.random.default_rng(0)
+    image = rng.random((8, 10, 3))
+    labels = np.zeros((8, 10), np.int64)
+    labels[:, 5:] = 3
+    row = eval_counts.picture_row(image, {"E_s": labels, "kmeans": labels},
+                                  {"E_s": (None, True), "kmeans": (None, False)})
+    assert row.shape == (8, 30, 3) and row.dtype == np.uint8
+    assert np.array_equal(row[:, :10], (image * 255).astype(np.uint8))  # the picture first
+    grey = (image.mean(2) * 255).astype(np.uint8)
+    e_s, km = row[:, 10:20].astype(int), row[:, 20:].astype(int)
+    assert np.abs(e_s[:, :5] - grey[:, :5, None]).max() <= 1  # E_s label 0: no texton, grey
+    assert np.abs(km[:, :5] - grey[:, :5, None]).max() > 20  # k-means' 0 is a segment
+    assert np.abs(e_s[:, 5:] - grey[:, 5:, None]).max() > 20  # segment 3 coloured
