@@ -42,17 +42,20 @@ def segments(labels: np.ndarray, skip_zero: bool) -> int:
     return int(keep.sum())
 
 
-def fitted(model, path: Path) -> tuple[int, int]:
-    """(effective textons, non-background elements) of a texture file."""
+def fitted(model, path: Path) -> tuple[int, int, np.ndarray | None]:
+    """(effective textons, non-background elements, the element of each pixel (H, W): 1 + its
+    index, 0 for background elements; None for a file without elements) of a texture file."""
     from neuraltex.texton_elements import element_shapes
     from neuraltex.texture_file import load_texture
 
     tex = load_texture(path, model)
     textons = int((tex.textons.delta[0] > 0.5).sum())
     if tex.elements is None or tex.labels is None:
-        return textons, -1
+        return textons, -1, None
     shapes = element_shapes(tex.labels, tex.elements)
-    return textons, int((~shapes.background & (shapes.area > 0)).sum())
+    pixels = tex.elements[tex.labels]  # (H, W)
+    pixels = np.where(shapes.background[pixels], 0, pixels + 1)
+    return textons, int((~shapes.background & (shapes.area > 0)).sum()), pixels
 
 
 def main() -> None:
@@ -86,9 +89,11 @@ def main() -> None:
         arr = image.permute(1, 2, 0).numpy().astype(np.float64)
         labels = {m: seg(arr) for m, (seg, _) in methods.items()}
         found = {m: segments(labels[m], skip) for m, (_, skip) in methods.items()}
-        rows.append(picture_row(arr, labels, methods))
         ntex = texture_file(args.textures / name, args.cache, args.steps)
-        found["fit textons"], found["fit elements"] = fitted(model, ntex)
+        found["fit textons"], found["fit elements"], elements = fitted(model, ntex)
+        if elements is not None and elements.shape == arr.shape[:2]:
+            labels["fit elements"] = elements
+        rows.append(picture_row(arr, labels, {**methods, "fit elements": (None, True)}))
         for m, n in found.items():
             ratios[m].append(n / hand)
         print(f"| {Path(name).stem} | {hand} | "
@@ -102,7 +107,8 @@ def main() -> None:
 
         save_pil(stack_rows([Image.fromarray(r) for r in rows], gap=4), args.pictures)
         print(f"wrote {args.pictures}: a row per texture; picture | "
-              + " | ".join(methods) + " (label 0 of E_s, no texton, left grey)")
+              + " | ".join(methods) + " | fit elements (grey: E_s's pixels of no texton, "
+              "the background elements of the texture file)")
 
 
 def picture_row(image: np.ndarray, labels: dict[str, np.ndarray], methods) -> np.ndarray:
@@ -113,6 +119,7 @@ def picture_row(image: np.ndarray, labels: dict[str, np.ndarray], methods) -> np
     grey = image.mean(2)
     tiles = [image] + [label2rgb(labels[m], image=grey, alpha=0.55,
                                  bg_label=0 if skip else -1, bg_color=None)
+                       if m in labels else np.ones_like(image)  # (white: none to show)
                        for m, (_, skip) in methods.items()]
     return (np.concatenate(tiles, axis=1).clip(0, 1) * 255).astype(np.uint8)
 
