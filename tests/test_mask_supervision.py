@@ -72,6 +72,11 @@ def test_batched_loss_equals_the_per_image_reference_with_gradients():
     labels[1][labels[1] > 2] = 0  # images with different numbers of segments
     labels[2] = 1
     logits = torch.randn(3, 6, 10, 10, dtype=torch.float64, requires_grad=True)
+    _assert_equals_reference(logits, labels)
+
+
+def _assert_equals_reference(logits, labels):
+    """The loss of logits.softmax(1) and its gradient to the logits equal the reference's."""
     fast = mask_supervision_loss(logits.softmax(1), labels)
     (g_fast,) = torch.autograd.grad(fast, logits)
     ref = _reference_loss(logits.softmax(1), labels)
@@ -123,12 +128,7 @@ def test_closed_form_gradient_where_the_clamps_cut_and_under_the_reference():
     logits = (torch.randn(2, 6, 9, 9, dtype=torch.float64) * 12).requires_grad_()
     S = logits.softmax(1)
     assert ((S < 1e-6).sum() > 50) and ((S > 1 - 1e-6).sum() > 10)
-    fast = mask_supervision_loss(S, labels)
-    (g_fast,) = torch.autograd.grad(fast, logits)
-    ref = _reference_loss(logits.softmax(1), labels)
-    (g_ref,) = torch.autograd.grad(ref, logits)
-    assert torch.allclose(fast, ref, atol=1e-10)
-    assert torch.allclose(g_fast, g_ref, atol=1e-10)
+    _assert_equals_reference(logits, labels)
 
 
 def test_gradient_checks_with_dropped_segments_unmatched_queries_and_points():
