@@ -81,6 +81,8 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--procedural", type=int, default=6,
                    help="procedural bricks pictures (128 px) for the last row")
     p.add_argument("--checkpoint", default=None, help="E_s export (default: the shipped model)")
+    p.add_argument("--queries", type=int, nargs="*", default=[196, 400],
+                   help="also run E_s with its queries resampled to these counts")
     args = p.parse_args(argv)
     photo = load_image(args.image).permute(1, 2, 0).numpy().astype(np.float64)
     bricks, ids = photo_bricks(photo.mean(2))
@@ -106,6 +108,10 @@ def main(argv: list[str] | None = None) -> int:
         layout = np.where(labels == mortar, 0, labels + 1)
         rows["procedural bricks drawn flat"].append(
             (flat(layout, rng), layout, [int(v) + 1 for v in values if v != mortar]))
+    for queries in args.queries:  # E_s with its queries resampled (neuraltex.query_grid)
+        seg = get_segmenter("model", checkpoint=args.checkpoint, num_queries=queries)
+        hits = own_segments(seg(photo), bricks, ids)
+        print(f"E_s with {queries} queries on the photograph: {hits} of {len(ids)} bricks")
     print(f"Bricks with a segment of their own (IoU >= 0.5), {args.image.name}: {len(ids)} bricks")
     print("| picture | bricks | " + " | ".join(methods) + " |\n|---|---:|"
           + "---:|" * len(methods))
