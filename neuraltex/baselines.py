@@ -115,7 +115,8 @@ MODEL_LABELS = ("masks", "splats", "refined", "guided")
 
 def model_segmenter(checkpoint: str, device: str = "cpu", labels: str = "masks",
                     num_queries: int | None = None,
-                    guide: tuple[float, float] | None = None) -> Segmenter:
+                    guide: tuple[float, float] | None = None,
+                    tile: int | None = None) -> Segmenter:
     """The learned texton model as a segmenter: the one hook the autoencoder plugs into.
 
     ``labels="masks"``: each pixel goes to the query whose mask S (E_s) is largest there, i.e.
@@ -129,6 +130,9 @@ def model_segmenter(checkpoint: str, device: str = "cpu", labels: str = "masks",
     ``labels="guided"``: the upsampled masks relabelled pixel by pixel with each label's colour
     model (:func:`neuraltex.mask_refinement.colour_guided_labels`, with ``guide`` = (weight,
     reach), default its own); the queries that are not effective form one background label.
+    ``tile``: run on overlapping ``tile`` px tiles (a quarter of a tile apart) and merge their
+    segments (:func:`neuraltex.tiled_segments.tiled_labels`), for pictures with more
+    elements than E_s takes in one call; None: the whole picture at once.
     """
     import torch
     import torch.nn.functional as F
@@ -171,6 +175,10 @@ def model_segmenter(checkpoint: str, device: str = "cpu", labels: str = "masks",
             label[weights.amax(0) < 0.05] = 0
         return label.cpu().numpy().astype(np.int64)
 
+    if tile:
+        from neuraltex.tiled_segments import tiled_labels
+
+        return lambda image: tiled_labels(segment, image, tile, tile // 4)
     return segment
 
 
@@ -199,12 +207,13 @@ METHODS: dict[str, Method] = {m.name: m for m in [
 def get_segmenter(name: str, value: float | None = None,
                   checkpoint: str | None = None, model_labels: str = "masks",
                   num_queries: int | None = None,
-                  guide: tuple[float, float] | None = None) -> Segmenter:
+                  guide: tuple[float, float] | None = None,
+                  tile: int | None = None) -> Segmenter:
     """Build method ``name`` (a key of ``METHODS`` or ``"model"``, with ``model_labels``,
-    ``num_queries`` and ``guide`` as in :func:`model_segmenter`) at ``value``."""
+    ``num_queries``, ``guide`` and ``tile`` as in :func:`model_segmenter`) at ``value``."""
     if name == "model":
         return model_segmenter(checkpoint or "", labels=model_labels, num_queries=num_queries,
-                               guide=guide)
+                               guide=guide, tile=tile)
     if name not in METHODS:
         raise InputError(f"unknown method {name!r}; choose from "
                          f"{', '.join([*METHODS, 'model'])}")

@@ -69,6 +69,8 @@ def main() -> None:
     add_texture_options(p)
     p.add_argument("--checkpoint", type=Path, help="another E_s export to count beside the "
                    "shipped model's")
+    p.add_argument("--tile", type=int, default=128, help="also count E_s run on overlapping "
+                   "tiles of this side (neuraltex.tiled_segments; 0: not)")
     p.add_argument("--pictures", type=Path, help="also write a PNG of what is counted: a row "
                    "per texture, the picture then each segmenter's segments in colour")
     args = p.parse_args()
@@ -76,6 +78,8 @@ def main() -> None:
         counts = [(r["file"], int(r["elements"])) for r in csv.DictReader(f)]
     model = common.load(None)
     methods = {"E_s shipped": (get_segmenter("model"), True)}
+    if args.tile:
+        methods[f"E_s on {args.tile} px tiles"] = (get_segmenter("model", tile=args.tile), True)
     if args.checkpoint:
         methods[f"E_s {args.checkpoint.parent.name or args.checkpoint.stem}"] = (
             get_segmenter("model", checkpoint=str(args.checkpoint)), True)

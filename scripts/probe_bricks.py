@@ -5,13 +5,14 @@ pictures that keep one of its properties at a time.
 
 The photograph's bricks are the dark regions between its light mortar (Otsu threshold of the
 grey picture, 1 px opening, 4-connected; regions under half the median brick area are edge
-slivers and left out), the regions data/real_textures/counts.csv counts. The same regions
-drawn flat (bricks 0.35, mortar 0.7, a little noise) keep the layout and drop the photograph's
-look; drawn with a colour per brick they look like the procedural ``bricks`` family's
-colouring. The procedural family's own bricks (running bond, short, horizontal), drawn
-grey and flat the same way, keep that look with the training layout. Felzenszwalb and
-k-means see the threshold the regions come from, so on the photograph they are a ceiling,
-not a rival.
+slivers and left out), the regions data/real_textures/counts.csv counts. Its quarters keep
+its look with a quarter of the bricks each. The same regions drawn flat (bricks 0.35, mortar
+0.7, a little noise) keep the layout and drop the photograph's look; drawn with a colour per
+brick they look like the procedural ``bricks`` family's colouring. The procedural family's
+own bricks (running bond, short, horizontal), drawn grey and flat the same way, keep that
+look with the training layout. E_s on tiles (``--tile``) is the patch-wise segmentation of
+:mod:`neuraltex.tiled_segments`. Felzenszwalb and k-means see the threshold the regions
+come from, so on the photograph they are a ceiling, not a rival.
 
     python scripts/probe_bricks.py
 """
@@ -58,6 +59,17 @@ def own_segments(segments: np.ndarray, bricks: np.ndarray, ids: list[int]) -> in
     return int(hits)
 
 
+def quarters(picture: np.ndarray, bricks: np.ndarray, ids: list[int]):
+    """The four quarters of a picture, each with its bricks (those with at least half their
+    area in it): (picture, bricks, ids) per quarter."""
+    H, W = bricks.shape
+    for ys in (slice(0, H // 2), slice(H // 2, H)):
+        for xs in (slice(0, W // 2), slice(W // 2, W)):
+            part = bricks[ys, xs]
+            yield picture[ys, xs], part, [k for k in ids
+                                          if 2 * (part == k).sum() >= (bricks == k).sum()]
+
+
 def flat(bricks: np.ndarray, rng: np.random.Generator, colours: bool = False) -> np.ndarray:
     """(H, W, 3) picture of a brick layout: one grey for the bricks (or a random colour
     each), a lighter one for the mortar, a little noise."""
@@ -81,6 +93,9 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--procedural", type=int, default=6,
                    help="procedural bricks pictures (128 px) for the last row")
     p.add_argument("--checkpoint", default=None, help="E_s export (default: the shipped model)")
+    p.add_argument("--tile", type=int, default=128,
+                   help="E_s also run on overlapping tiles of this side (neuraltex."
+                   "tiled_segments; 128: the shipped model's training size)")
     p.add_argument("--queries", type=int, nargs="*", default=[196, 400],
                    help="also run E_s with its queries resampled to these counts")
     args = p.parse_args(argv)
@@ -88,6 +103,8 @@ def main(argv: list[str] | None = None) -> int:
     bricks, ids = photo_bricks(photo.mean(2))
     rng = np.random.default_rng(0)
     methods = {"E_s": get_segmenter("model", checkpoint=args.checkpoint),
+               f"E_s on {args.tile} px tiles": get_segmenter("model", checkpoint=args.checkpoint,
+                                                            tile=args.tile),
                "felzenszwalb": get_segmenter("felzenszwalb"), "kmeans": get_segmenter("kmeans")}
     half = tuple(side // 2 for side in bricks.shape)
     rows = {"the photograph": [(photo, bricks, ids)],
@@ -96,6 +113,7 @@ def main(argv: list[str] | None = None) -> int:
                                                     preserve_range=True).astype(int), ids)],
             "the photograph turned 90 degrees": [(np.rot90(photo).copy(),
                                                   np.rot90(bricks).copy(), ids)],
+            "the photograph cut in quarters": list(quarters(photo, bricks, ids)),
             "its bricks drawn flat": [(flat(bricks, rng), bricks, ids)],
             "its bricks, a colour each": [(flat(bricks, rng, colours=True), bricks, ids)]}
     data = ProceduralTextures(args.procedural, size=128, seed=0, families=["bricks"])

@@ -1,0 +1,75 @@
+"""neuraltex.tiled_segments: a segmenter run on overlapping tiles, its segments merged."""
+
+import numpy as np
+import pytest
+
+from neuraltex.tiled_segments import tile_origins, tiled_labels
+
+
+def test_tile_origins_cover_the_side_and_end_flush():
+    assert tile_origins(100, 128, 32) == [0]
+    starts = tile_origins(300, 128, 32)
+    assert starts[0] == 0 and starts[-1] == 300 - 128
+    assert all(0 < b - a <= 96 for a, b in zip(starts, starts[1:], strict=False))
+
+
+def _squares(side: int = 96, size: int = 8, gap: int = 4) -> np.ndarray:
+    """(side, side) 0 background, 1.. squares of ``size`` px ``gap`` px apart."""
+    truth = np.zeros((side, side), np.int64)
+    k = 0
+    for y in range(gap, side - size, size + gap):
+        for x in range(gap, side - size, size + gap):
+            k += 1
+            truth[y:y + size, x:x + size] = k
+    return truth
+
+
+def test_elements_cut_by_tile_borders_are_joined_again():
+    """An oracle segmenter (the true squares of each tile, numbered locally) on tiles that
+    cut many squares: every square comes back as exactly one segment of its own."""
+    truth = _squares()
+    image = np.zeros(truth.shape + (3,))
+    calls = []
+    # tiles are visited row by row, as tiled_labels does
+    origins = [(y, x) for y in tile_origins(96, 40, 12) for x in tile_origins(96, 40, 12)]
+
+    def segment(tile: np.ndarray) -> np.ndarray:
+        y, x = origins[len(calls)]
+        calls.append((y, x))
+        part = truth[y:y + tile.shape[0], x:x + tile.shape[1]]
+        _, local = np.unique(part, return_inverse=True)  # renumbered as a tile sees them
+        return np.where(part > 0, local.reshape(part.shape) + 100 * len(calls), 0)
+
+    labels = tiled_labels(segment, image, 40, 12)
+    assert len(calls) == len(origins) > 4
+    cut = sum(len(np.unique(truth[y:y + 40, x:x + 40])) for y, x in origins) - len(origins)
+    assert cut > truth.max()  # squares are seen by several tiles
+    for k in range(1, truth.max() + 1):
+        assert len(np.unique(labels[truth == k])) == 1  # one segment per square ...
+    found = {int(labels[truth == k][0]) for k in range(1, truth.max() + 1)}
+    assert len(found) == truth.max() and 0 not in found  # ... each its own
+    assert (labels[truth == 0] == 0).all()  # no segment stays no segment
+
+
+def test_nothing_segmented_stays_nothing_and_bad_overlap_is_refused():
+    image = np.zeros((70, 90, 3))
+    assert (tiled_labels(lambda t: np.zeros(t.shape[:2], np.int64), image, 32, 8) == 0).all()
+    with pytest.raises(ValueError, match="overlap"):
+        tiled_labels(lambda t: np.zeros(t.shape[:2], np.int64), image, 32, 32)
+
+
+def test_model_segmenter_on_tiles_is_the_whole_picture_run_when_one_tile_covers_it():
+    """``get_segmenter("model", tile=...)``: with a tile as large as the picture the shipped
+    model's segments are its whole-picture segments (renumbered); with smaller tiles the
+    labels still cover the picture, from the tiles' own runs."""
+    from neuraltex.baselines import get_segmenter
+
+    rng = np.random.default_rng(0)
+    image = np.kron(rng.random((8, 8, 3)), np.ones((12, 12, 1)))  # 96 px of 12 px blocks
+    whole = get_segmenter("model")(image)
+    tiled = get_segmenter("model", tile=96)(image)
+    assert tiled.shape == whole.shape == (96, 96)
+    pairs = set(zip(whole.ravel().tolist(), tiled.ravel().tolist(), strict=True))
+    assert len(pairs) == len(np.unique(whole)) == len(np.unique(tiled))  # the same partition
+    small = get_segmenter("model", tile=48)(image)
+    assert small.shape == (96, 96) and small.min() >= 0 and len(np.unique(small)) > 4
