@@ -9,7 +9,9 @@ owns a core (the tiles' cores partition the picture), and a tile's segment is ke
 centre lies in that tile's core, so an element cut by a tile border is kept from the tile
 that holds most of it. Each pixel takes the kept segment that claims it in its own core's
 tile, else in another tile that covers it; a pixel no kept segment claims keeps its core
-tile's segment (under a label of its own).
+tile's segment (under a label of its own). A segment larger than the overlap (a background)
+is kept by every tile it spans; those pieces are joined where they claim the same pixels in
+the tiles' overlap.
 """
 
 from __future__ import annotations
@@ -20,6 +22,7 @@ from itertools import pairwise
 import numpy as np
 
 Segment = Callable[[np.ndarray], np.ndarray]  # (h, w, 3) -> (h, w) int64, 0 = no segment
+SAME = 0.5  # IoU where two tiles overlap above which their kept segments are one
 
 
 def tile_origins(size: int, tile: int, overlap: int) -> list[int]:
@@ -75,6 +78,41 @@ def tiled_labels(segment: Segment, image: np.ndarray, tile: int, overlap: int) -
         region = owner[ys[i]:ys[i] + claim.shape[0], xs[j]:xs[j] + claim.shape[1]]
         free = region == 0
         region[free] = claim[free]
-    labels = np.where(owner > 0, owner, own)
+    labels = _same_across_tiles(claims, ys, xs, next_id)[np.where(owner > 0, owner, own)]
     _, dense = np.unique(labels, return_inverse=True)  # consecutive, 0 stays 0 if present
     return dense.reshape(H, W) + (0 if (labels == 0).any() else 1)
+
+
+def _same_across_tiles(claims: dict, ys: list[int], xs: list[int], count: int,
+                       agree: float = SAME) -> np.ndarray:
+    """(count,) the segment each kept segment is merged into: kept segments of two tiles that
+    claim the same pixels where the tiles overlap (IoU there >= ``agree``) are one segment
+    (one larger than the overlap, e.g. a background, is kept by every tile it spans)."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    edges = []
+    tiles = list(claims)
+    for n, (i, j) in enumerate(tiles):
+        for k, l in tiles[n + 1:]:
+            y0, y1 = max(ys[i], ys[k]), min(ys[i] + claims[i, j].shape[0],
+                                            ys[k] + claims[k, l].shape[0])
+            x0, x1 = max(xs[j], xs[l]), min(xs[j] + claims[i, j].shape[1],
+                                            xs[l] + claims[k, l].shape[1])
+            if y0 >= y1 or x0 >= x1:
+                continue
+            a = claims[i, j][y0 - ys[i]:y1 - ys[i], x0 - xs[j]:x1 - xs[j]].ravel()
+            b = claims[k, l][y0 - ys[k]:y1 - ys[k], x0 - xs[l]:x1 - xs[l]].ravel()
+            size_a, size_b = np.bincount(a, minlength=count), np.bincount(b, minlength=count)
+            both = (a > 0) & (b > 0)
+            pairs, shared = np.unique(np.stack([a[both], b[both]]), axis=1, return_counts=True)
+            iou = shared / (size_a[pairs[0]] + size_b[pairs[1]] - shared)
+            edges.append(pairs[:, iou >= agree])
+    if not edges:
+        return np.arange(count)
+    pairs = np.concatenate(edges, axis=1)
+    graph = coo_matrix((np.ones(pairs.shape[1]), (pairs[0], pairs[1])), shape=(count, count))
+    _, root = connected_components(graph, directed=False)
+    root += 1
+    root[0] = 0  # "no segment" stays 0 (it is never in a pair)
+    return root

@@ -24,22 +24,29 @@ def _squares(side: int = 96, size: int = 8, gap: int = 4) -> np.ndarray:
     return truth
 
 
-def test_elements_cut_by_tile_borders_are_joined_again():
-    """An oracle segmenter (the true squares of each tile, numbered locally) on tiles that
-    cut many squares: every square comes back as exactly one segment of its own."""
-    truth = _squares()
-    image = np.zeros(truth.shape + (3,))
+def _oracle(truth: np.ndarray, tile: int, overlap: int):
+    """A segmenter that returns the true segments of each tile, numbered as the tile sees
+    them (tiles come row by row, as tiled_labels visits them), and the tiles it was asked."""
     calls = []
-    # tiles are visited row by row, as tiled_labels does
-    origins = [(y, x) for y in tile_origins(96, 40, 12) for x in tile_origins(96, 40, 12)]
+    origins = [(y, x) for y in tile_origins(truth.shape[0], tile, overlap)
+               for x in tile_origins(truth.shape[1], tile, overlap)]
 
-    def segment(tile: np.ndarray) -> np.ndarray:
+    def segment(part_image: np.ndarray) -> np.ndarray:
         y, x = origins[len(calls)]
         calls.append((y, x))
-        part = truth[y:y + tile.shape[0], x:x + tile.shape[1]]
-        _, local = np.unique(part, return_inverse=True)  # renumbered as a tile sees them
+        part = truth[y:y + part_image.shape[0], x:x + part_image.shape[1]]
+        _, local = np.unique(part, return_inverse=True)
         return np.where(part > 0, local.reshape(part.shape) + 100 * len(calls), 0)
 
+    return segment, calls, origins
+
+
+def test_elements_cut_by_tile_borders_are_joined_again():
+    """The oracle on tiles that cut many squares: every square comes back as exactly one
+    segment of its own."""
+    truth = _squares()
+    image = np.zeros(truth.shape + (3,))
+    segment, calls, origins = _oracle(truth, 40, 12)
     labels = tiled_labels(segment, image, 40, 12)
     assert len(calls) == len(origins) > 4
     cut = sum(len(np.unique(truth[y:y + 40, x:x + 40])) for y, x in origins) - len(origins)
@@ -49,6 +56,16 @@ def test_elements_cut_by_tile_borders_are_joined_again():
     found = {int(labels[truth == k][0]) for k in range(1, truth.max() + 1)}
     assert len(found) == truth.max() and 0 not in found  # ... each its own
     assert (labels[truth == 0] == 0).all()  # no segment stays no segment
+
+
+def test_a_segment_larger_than_the_tiles_comes_back_whole():
+    """A background spanning every tile is kept by each of them; the pieces are joined where
+    the tiles overlap, and the squares on it stay apart."""
+    truth = _squares() + 1  # 1: the background around the squares, a segment too
+    segment, _, _ = _oracle(truth, 40, 12)
+    labels = tiled_labels(segment, np.zeros(truth.shape + (3,)), 40, 12)
+    assert len(np.unique(labels[truth == 1])) == 1
+    assert len(np.unique(labels)) == truth.max()  # the background and every square
 
 
 def test_nothing_segmented_stays_nothing_and_bad_overlap_is_refused():
