@@ -116,7 +116,7 @@ MODEL_LABELS = ("masks", "splats", "refined", "guided")
 def model_segmenter(checkpoint: str, device: str = "cpu", labels: str = "masks",
                     num_queries: int | None = None,
                     guide: tuple[float, float] | None = None,
-                    tile: int | None = None) -> Segmenter:
+                    tile: int | None = None, tile_from: int | None = None) -> Segmenter:
     """The learned texton model as a segmenter: the one hook the autoencoder plugs into.
 
     ``labels="masks"``: each pixel goes to the query whose mask S (E_s) is largest there, i.e.
@@ -130,9 +130,12 @@ def model_segmenter(checkpoint: str, device: str = "cpu", labels: str = "masks",
     ``labels="guided"``: the upsampled masks relabelled pixel by pixel with each label's colour
     model (:func:`neuraltex.mask_refinement.colour_guided_labels`, with ``guide`` = (weight,
     reach), default its own); the queries that are not effective form one background label.
-    ``tile``: run on overlapping ``tile`` px tiles (a quarter of a tile apart) and merge their
-    segments (:func:`neuraltex.tiled_segments.tiled_labels`), for pictures with more
-    elements than E_s takes in one call; None: the whole picture at once.
+    ``tile``: run on overlapping ``tile`` px tiles (overlapping by a quarter of a tile), each
+    resized to the model's training size (128 px: a 64 px tile is seen at 2x), and merge
+    their segments (:func:`neuraltex.tiled_segments.tiled_labels`); None: the whole picture
+    at once. ``tile_from``: tile only pictures whose whole-picture run gives at least that many
+    segments (a dense picture; :data:`neuraltex.tiled_segments.DENSE`, picked on the
+    validation split), else keep that run.
     """
     import torch
     import torch.nn.functional as F
@@ -176,9 +179,18 @@ def model_segmenter(checkpoint: str, device: str = "cpu", labels: str = "masks",
         return label.cpu().numpy().astype(np.int64)
 
     if tile:
-        from neuraltex.tiled_segments import tiled_labels
+        from neuraltex.tiled_segments import at_side, tiled_labels
 
-        return lambda image: tiled_labels(segment, image, tile, tile // 4)
+        native = at_side(segment, model.native_size or tile)  # each tile at training size
+
+        def tiled(image: np.ndarray) -> np.ndarray:
+            if tile_from:
+                whole = segment(image)
+                if len(np.unique(whole)) < tile_from:  # not dense: the whole-picture run
+                    return whole
+            return tiled_labels(native, image, tile, tile // 4)
+
+        return tiled
     return segment
 
 
@@ -208,12 +220,13 @@ def get_segmenter(name: str, value: float | None = None,
                   checkpoint: str | None = None, model_labels: str = "masks",
                   num_queries: int | None = None,
                   guide: tuple[float, float] | None = None,
-                  tile: int | None = None) -> Segmenter:
+                  tile: int | None = None, tile_from: int | None = None) -> Segmenter:
     """Build method ``name`` (a key of ``METHODS`` or ``"model"``, with ``model_labels``,
-    ``num_queries``, ``guide`` and ``tile`` as in :func:`model_segmenter`) at ``value``."""
+    ``num_queries``, ``guide``, ``tile`` and ``tile_from`` as in :func:`model_segmenter`) at
+    ``value``."""
     if name == "model":
         return model_segmenter(checkpoint or "", labels=model_labels, num_queries=num_queries,
-                               guide=guide, tile=tile)
+                               guide=guide, tile=tile, tile_from=tile_from)
     if name not in METHODS:
         raise InputError(f"unknown method {name!r}; choose from "
                          f"{', '.join([*METHODS, 'model'])}")

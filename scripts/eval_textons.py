@@ -59,6 +59,13 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--num-queries", type=int, default=None,
                    help="--method model: resample E_s's query grid to this many queries "
                         "(no training; for dense textures, e.g. 196)")
+    p.add_argument("--tile", type=int, default=None,
+                   help="--method model: run E_s on overlapping tiles of this side, each seen "
+                        "at the model's training size (64 on the 128 px benchmark: zoomed 2x; "
+                        "neuraltex/tiled_segments.py)")
+    p.add_argument("--tile-from", type=int, default=None,
+                   help="with --tile: tile only pictures whose whole-picture run gives at least "
+                        "this many segments (dense ones; 50 = neuraltex.tiled_segments.DENSE)")
     p.add_argument("--families", default=None,
                    help="comma list of families to score (default: all), e.g. discs,dots")
     p.add_argument("--tune", action="store_true",
@@ -92,6 +99,10 @@ def main(argv: list[str] | None = None) -> int:
         raise InputError("--guided-weight must be >= 0 and --guided-reach in [0, 1]")
     if args.limit is not None and args.limit < 1:
         raise InputError("--limit must be >= 1")
+    if args.tile is not None and not 16 <= args.tile <= 4096:
+        raise InputError("--tile must be in [16, 4096] px")
+    if args.tile_from is not None and (args.tile is None or args.tile_from < 1):
+        raise InputError("--tile-from needs --tile and must be >= 1")
     progress = not args.quiet
     items = benchmark_split() if args.split == "benchmark" else validation_split()
     if args.families:
@@ -112,11 +123,14 @@ def main(argv: list[str] | None = None) -> int:
             segment = get_segmenter("model", checkpoint=args.checkpoint,
                                     model_labels=args.model_labels,
                                     num_queries=args.num_queries,
-                                    guide=(args.guided_weight, args.guided_reach))
+                                    guide=(args.guided_weight, args.guided_reach),
+                                    tile=args.tile, tile_from=args.tile_from)
             params[name] = f"labels={args.model_labels}" + (
                 f" weight={args.guided_weight:g} reach={args.guided_reach:g}"
                 if args.model_labels == "guided" else "") + (
-                f" queries={args.num_queries}" if args.num_queries else "")
+                f" queries={args.num_queries}" if args.num_queries else "") + (
+                f" tile={args.tile}" if args.tile else "") + (
+                f" from {args.tile_from} segments" if args.tile and args.tile_from else "")
         else:
             m = METHODS[name]
             value = m.default if args.param is None else args.param

@@ -76,17 +76,62 @@ def test_nothing_segmented_stays_nothing_and_bad_overlap_is_refused():
 
 
 def test_model_segmenter_on_tiles_is_the_whole_picture_run_when_one_tile_covers_it():
-    """``get_segmenter("model", tile=...)``: with a tile as large as the picture the shipped
-    model's segments are its whole-picture segments (renumbered); with smaller tiles the
-    labels still cover the picture, from the tiles' own runs."""
+    """``get_segmenter("model", tile=...)``: with one tile as large as the picture at the
+    model's training size (128 px) the shipped model's segments are its whole-picture
+    segments (renumbered); with smaller tiles (seen zoomed in) they still cover the picture."""
     from neuraltex.baselines import get_segmenter
 
     rng = np.random.default_rng(0)
-    image = np.kron(rng.random((8, 8, 3)), np.ones((12, 12, 1)))  # 96 px of 12 px blocks
+    image = np.kron(rng.random((8, 8, 3)), np.ones((16, 16, 1)))  # 128 px of 16 px blocks
     whole = get_segmenter("model")(image)
-    tiled = get_segmenter("model", tile=96)(image)
-    assert tiled.shape == whole.shape == (96, 96)
+    tiled = get_segmenter("model", tile=128)(image)
+    assert tiled.shape == whole.shape == (128, 128)
     pairs = set(zip(whole.ravel().tolist(), tiled.ravel().tolist(), strict=True))
     assert len(pairs) == len(np.unique(whole)) == len(np.unique(tiled))  # the same partition
-    small = get_segmenter("model", tile=48)(image)
-    assert small.shape == (96, 96) and small.min() >= 0 and len(np.unique(small)) > 4
+    small = get_segmenter("model", tile=64)(image)
+    assert small.shape == (128, 128) and small.min() >= 0 and len(np.unique(small)) > 4
+    # tile_from: tiles only for a picture whose whole run has at least that many segments
+    sparse = get_segmenter("model", tile=64, tile_from=len(np.unique(whole)) + 1)(image)
+    assert np.array_equal(sparse, whole)
+    dense = get_segmenter("model", tile=64, tile_from=len(np.unique(whole)))(image)
+    assert np.array_equal(dense, small)
+
+
+def test_at_side_runs_the_segmenter_at_that_size_and_maps_labels_back():
+    from neuraltex.tiled_segments import at_side
+
+    seen = []
+
+    def halves(part: np.ndarray) -> np.ndarray:  # left half 1, right half 2
+        seen.append(part.shape[:2])
+        out = np.ones(part.shape[:2], np.int64)
+        out[:, part.shape[1] // 2:] = 2
+        return out
+
+    labels = at_side(halves, 128)(np.zeros((32, 64, 3)))
+    assert seen == [(64, 128)] and labels.shape == (32, 64)
+    assert (labels[:, :32] == 1).all() and (labels[:, 32:] == 2).all()
+
+
+def test_pixels_no_kept_segment_claims_go_to_the_nearest_claimed_one():
+    """The first tile sees a sliver across its core's edge (x 28-39: its centre outside that
+    core, so not kept); in the next tile the same pixels x 28-31 belong to a piece whose
+    centre is outside that tile's core too. Those pixels are claimed by no kept segment: they
+    join the segments next to them instead of coming back as a label of their own."""
+    truth = np.zeros((64, 64), np.int64)
+    truth[:, :32], truth[:, 32:] = 1, 2  # two halves
+    origins = [(y, x) for y in tile_origins(64, 40, 16) for x in tile_origins(64, 40, 16)]
+    assert [x for _, x in origins[:2]] == [0, 24]  # cores: x < 32 and x >= 32
+    tiles = []
+
+    def segment(part: np.ndarray) -> np.ndarray:
+        y, x = origins[len(tiles)]
+        tiles.append((y, x))
+        out = truth[y:y + 40, x:x + 40].copy()
+        if x == 0:
+            out[:, 28:40] = 7  # the sliver
+        return out
+
+    labels = tiled_labels(segment, np.zeros((64, 64, 3)), 40, 16)
+    assert len(np.unique(labels)) == 2  # no third label from the sliver
+    assert (labels[:, :28] == labels[0, 0]).all() and (labels[:, 32:] == labels[0, 63]).all()
