@@ -121,22 +121,31 @@ def _same_across_tiles(claims: dict, ys: list[int], xs: list[int], count: int,
     from scipy.sparse.csgraph import connected_components
 
     edges = []
-    tiles = list(claims)
-    for n, (i, j) in enumerate(tiles):
-        for k, l in tiles[n + 1:]:
-            y0, y1 = max(ys[i], ys[k]), min(ys[i] + claims[i, j].shape[0],
-                                            ys[k] + claims[k, l].shape[0])
-            x0, x1 = max(xs[j], xs[l]), min(xs[j] + claims[i, j].shape[1],
-                                            xs[l] + claims[k, l].shape[1])
-            if y0 >= y1 or x0 >= x1:
-                continue
-            a = claims[i, j][y0 - ys[i]:y1 - ys[i], x0 - xs[j]:x1 - xs[j]].ravel()
-            b = claims[k, l][y0 - ys[k]:y1 - ys[k], x0 - xs[l]:x1 - xs[l]].ravel()
-            size_a, size_b = np.bincount(a, minlength=count), np.bincount(b, minlength=count)
-            both = (a > 0) & (b > 0)
-            pairs, shared = np.unique(np.stack([a[both], b[both]]), axis=1, return_counts=True)
-            iou = shared / (size_a[pairs[0]] + size_b[pairs[1]] - shared)
-            edges.append(pairs[:, iou >= agree])
+    for (i, j), mine in claims.items():  # each pair of overlapping tiles once
+        h, w = mine.shape
+        for k in range(i, len(ys)):
+            if ys[k] >= ys[i] + h:
+                break
+            for l in range(len(xs)):
+                if (k, l) <= (i, j) or abs(xs[l] - xs[j]) >= w:
+                    continue
+                other = claims[k, l]
+                y0, y1 = ys[k], min(ys[i] + h, ys[k] + other.shape[0])
+                x0, x1 = max(xs[j], xs[l]), min(xs[j] + w, xs[l] + other.shape[1])
+                if y0 >= y1 or x0 >= x1:
+                    continue
+                a = mine[y0 - ys[i]:y1 - ys[i], x0 - xs[j]:x1 - xs[j]].ravel()
+                b = other[y0 - ys[k]:y1 - ys[k], x0 - xs[l]:x1 - xs[l]].ravel()
+                both = (a > 0) & (b > 0)
+                if not both.any():
+                    continue
+                ids_a, size_a = np.unique(a, return_counts=True)
+                ids_b, size_b = np.unique(b, return_counts=True)
+                pairs, shared = np.unique(np.stack([a[both], b[both]]), axis=1,
+                                          return_counts=True)
+                union = (size_a[np.searchsorted(ids_a, pairs[0])]
+                         + size_b[np.searchsorted(ids_b, pairs[1])] - shared)
+                edges.append(pairs[:, shared / union >= agree])
     if not edges:
         return np.arange(count)
     pairs = np.concatenate(edges, axis=1)
