@@ -28,6 +28,7 @@ from neuraltex.evaluation import family_table, score, summary_table, tune  # noq
 from neuraltex.fileio import write_text_atomic  # noqa: E402
 from neuraltex.limits import MAX_TEXTONS  # noqa: E402
 from neuraltex.mask_refinement import REACH, WEIGHT  # noqa: E402
+from neuraltex.tiled_segments import DENSE  # noqa: E402
 
 LEGEND = """\
 Metrics (neuraltex/metrics.py): **miou** = Hungarian-matched mean IoU over ground-truth
@@ -65,7 +66,8 @@ def build_parser() -> argparse.ArgumentParser:
                         "neuraltex/tiled_segments.py)")
     p.add_argument("--tile-from", type=int, default=None,
                    help="with --tile: tile only pictures whose whole-picture run gives at least "
-                        "this many segments (dense ones; 50 = neuraltex.tiled_segments.DENSE)")
+                        f"this many segments (dense ones; {DENSE}, picked on the validation "
+                        "split: neuraltex.tiled_segments.DENSE)")
     p.add_argument("--families", default=None,
                    help="comma list of families to score (default: all), e.g. discs,dots")
     p.add_argument("--tune", action="store_true",
