@@ -1,56 +1,38 @@
-"""Segments of a picture from a segmenter run on overlapping tiles (patch-wise segmentation).
+"""One labelling of a picture from the labels of its overlapping tiles (patch-wise
+segmentation).
 
 E_s sees at most ``num_queries`` elements per call, at its training resolution: a photograph
 with many elements (e.g. 71 bricks in data/real_textures/brick.png) is squeezed into one
 128 px call and comes out as blobs, where each 128 px quarter alone is segmented brick by
-brick (MODEL.md, "Textons per visible element"; ``scripts/probe_bricks.py``). Here the
-picture is cut into ``tile`` x ``tile`` tiles overlapping by ``overlap`` pixels; every tile
-owns a core (the tiles' cores partition the picture), and a tile's segment is kept when its
-centre lies in that tile's core, so an element cut by a tile border is kept from the tile
-that holds most of it. Each pixel takes the kept segment that claims it in its own core's
-tile, else in another tile that covers it; a pixel no kept segment claims (about 2 % of
-them, where a tile's segmentation of an element differs from its keeper's) goes to the
-nearest claimed segment (with none kept anywhere, the core tiles' own segments stand). A
-segment larger than the overlap (a background) is kept by every tile it spans; those pieces
-are joined where they claim the same pixels in the tiles' overlap.
+brick (MODEL.md, "Textons per visible element"; ``scripts/probe_bricks.py``).
+:mod:`neuraltex.tiled_encode` therefore labels overlapping tiles of the picture; here their
+labels become one. Every tile owns a core (the tiles' cores partition the picture), and a
+tile's segment is kept when its centre lies in that tile's core, so an element cut by a tile
+border is kept from the tile that holds most of it. Each pixel takes the kept segment that
+claims it in its own core's tile, else in another tile that covers it; a pixel no kept
+segment claims (about 2 % of them, where a tile's segmentation of an element differs from its
+keeper's) goes to the nearest claimed segment (with none kept anywhere, the core tiles' own
+segments stand). A segment larger than the overlap (a background) is kept by every tile it
+spans; those pieces are joined where they claim the same pixels in the tiles' overlap.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from itertools import pairwise
 
 import numpy as np
 
-Segment = Callable[[np.ndarray], np.ndarray]  # (h, w, 3) -> (h, w) int64, 0 = no segment
 SAME = 0.5  # IoU where two tiles overlap above which their kept segments are one
 DENSE = 50  # segments of E_s's whole-picture run from which tiles pay (validation split:
-            # matched mIoU 0.560 whole, 0.654 always tiled, 0.675 tiled from 50; MODEL.md)
-
-
-def at_side(segment: Segment, side: int) -> Segment:
-    """``segment`` run on its input resized (bilinear) so that the longer side is ``side``
-    px, its labels brought back by nearest neighbour: tiles smaller than a model's training
-    size are seen at that size (zoomed in), as its elements are at training time."""
-    from skimage.transform import resize
-
-    def run(part: np.ndarray) -> np.ndarray:
-        h, w = part.shape[:2]
-        if max(h, w) == side:
-            return segment(part)
-        f = side / max(h, w)
-        size = (max(1, round(h * f)), max(1, round(w * f)))
-        labels = segment(resize(part, size, order=1, anti_aliasing=f < 1))
-        rows = np.minimum((np.arange(h) + 0.5) * size[0] / h, size[0] - 1).astype(int)
-        cols = np.minimum((np.arange(w) + 0.5) * size[1] / w, size[1] - 1).astype(int)
-        return labels[rows[:, None], cols[None, :]]
-
-    return run
+            # MODEL.md, "Patch-wise encoding")
+TILING = ("auto", "on", "off")  # how neuraltex.tiled_encode.encode_image encodes a picture
 
 
 def tile_origins(size: int, tile: int, overlap: int) -> list[int]:
     """Starts of the tiles along one side of ``size`` px: ``tile - overlap`` apart, the last
     flush with the end (one tile when ``size <= tile``)."""
+    if not 0 <= overlap < tile:
+        raise ValueError(f"overlap must be in [0, tile), got {overlap} for tile {tile}")
     if size <= tile:
         return [0]
     step = max(1, tile - overlap)
@@ -65,34 +47,34 @@ def _cores(origins: list[int], size: int, tile: int) -> list[tuple[int, int]]:
     return list(pairwise(cuts))
 
 
-def tiled_labels(segment: Segment, image: np.ndarray, tile: int, overlap: int) -> np.ndarray:
-    """Labels (H, W) int64 (0 = no segment, 1.. segments) of ``image`` (H, W, 3) from
-    ``segment`` run on its overlapping tiles (module doc)."""
-    if not 0 <= overlap < tile:
-        raise ValueError(f"overlap must be in [0, tile), got {overlap} for tile {tile}")
-    H, W = image.shape[:2]
-    ys, xs = tile_origins(H, tile, overlap), tile_origins(W, tile, overlap)
-    core_y, core_x = _cores(ys, H, tile), _cores(xs, W, tile)
+def merge_tiles(parts: dict[tuple[int, int], np.ndarray], shape: tuple[int, int],
+                ys: list[int], xs: list[int]) -> np.ndarray:
+    """Labels (H, W) int64 (0 = no segment, 1.. segments) of a picture of ``shape`` from the
+    labels of its tiles: ``parts[i, j]`` (h, w) int (0 = no segment) of the tile at
+    (``ys[i]``, ``xs[j]``) (:func:`tile_origins`; module doc)."""
+    H, W = shape
+    tile_h, tile_w = parts[0, 0].shape
+    core_y, core_x = _cores(ys, H, tile_h), _cores(xs, W, tile_w)
     claims = {}  # (i, j) -> (h, w) the kept segment claiming each pixel of tile (i, j), or 0
     own = np.zeros((H, W), np.int64)  # the core tile's segment of each pixel, kept or not
     next_id = 1
-    for i, y0 in enumerate(ys):
-        for j, x0 in enumerate(xs):
-            part = np.asarray(segment(image[y0:y0 + tile, x0:x0 + tile]), np.int64)
-            h, w = part.shape
-            ids, inverse = np.unique(part, return_inverse=True)
-            inverse = inverse.reshape(h, w)
-            rows, cols = np.mgrid[y0:y0 + h, x0:x0 + w]
-            count = np.bincount(inverse.ravel(), minlength=len(ids))
-            cy = np.bincount(inverse.ravel(), rows.ravel(), len(ids)) / count
-            cx = np.bincount(inverse.ravel(), cols.ravel(), len(ids)) / count
-            (a, b), (c, d) = core_y[i], core_x[j]
-            kept = (ids != 0) & (cy >= a) & (cy < b) & (cx >= c) & (cx < d)
-            gid = np.zeros(len(ids), np.int64)
-            gid[ids != 0] = np.arange(next_id, next_id + int((ids != 0).sum()))
-            next_id += int((ids != 0).sum())
-            claims[i, j] = np.where(kept, gid, 0)[inverse]
-            own[a:b, c:d] = gid[inverse[a - y0:b - y0, c - x0:d - x0]]
+    for (i, j), part in parts.items():
+        y0, x0 = ys[i], xs[j]
+        part = np.asarray(part, np.int64)
+        h, w = part.shape
+        ids, inverse = np.unique(part, return_inverse=True)
+        inverse = inverse.reshape(h, w)
+        rows, cols = np.mgrid[y0:y0 + h, x0:x0 + w]
+        count = np.bincount(inverse.ravel(), minlength=len(ids))
+        cy = np.bincount(inverse.ravel(), rows.ravel(), len(ids)) / count
+        cx = np.bincount(inverse.ravel(), cols.ravel(), len(ids)) / count
+        (a, b), (c, d) = core_y[i], core_x[j]
+        kept = (ids != 0) & (cy >= a) & (cy < b) & (cx >= c) & (cx < d)
+        gid = np.zeros(len(ids), np.int64)
+        gid[ids != 0] = np.arange(next_id, next_id + int((ids != 0).sum()))
+        next_id += int((ids != 0).sum())
+        claims[i, j] = np.where(kept, gid, 0)[inverse]
+        own[a:b, c:d] = gid[inverse[a - y0:b - y0, c - x0:d - x0]]
     owner = np.zeros((H, W), np.int64)  # the kept segment a pixel goes to, or 0
     for (i, j), claim in claims.items():  # a pixel's own core tile claims it first
         (a, b), (c, d) = core_y[i], core_x[j]

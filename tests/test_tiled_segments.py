@@ -1,9 +1,18 @@
-"""neuraltex.tiled_segments: a segmenter run on overlapping tiles, its segments merged."""
+"""neuraltex.tiled_segments: the labels of overlapping tiles merged into one labelling."""
 
 import numpy as np
 import pytest
 
-from neuraltex.tiled_segments import tile_origins, tiled_labels
+from neuraltex.tiled_segments import merge_tiles, tile_origins
+
+
+def tiled_labels(segment, image: np.ndarray, tile: int, overlap: int) -> np.ndarray:
+    """``segment`` (h, w, 3) -> (h, w) run on the tiles of ``image`` row by row, merged."""
+    ys = tile_origins(image.shape[0], tile, overlap)
+    xs = tile_origins(image.shape[1], tile, overlap)
+    parts = {(i, j): segment(image[y:y + tile, x:x + tile])
+             for i, y in enumerate(ys) for j, x in enumerate(xs)}
+    return merge_tiles(parts, image.shape[:2], ys, xs)
 
 
 def test_tile_origins_cover_the_side_and_end_flush():
@@ -72,45 +81,7 @@ def test_nothing_segmented_stays_nothing_and_bad_overlap_is_refused():
     image = np.zeros((70, 90, 3))
     assert (tiled_labels(lambda t: np.zeros(t.shape[:2], np.int64), image, 32, 8) == 0).all()
     with pytest.raises(ValueError, match="overlap"):
-        tiled_labels(lambda t: np.zeros(t.shape[:2], np.int64), image, 32, 32)
-
-
-def test_model_segmenter_on_tiles_is_the_whole_picture_run_when_one_tile_covers_it():
-    """``get_segmenter("model", tile=...)``: with one tile as large as the picture at the
-    model's training size (128 px) the shipped model's segments are its whole-picture
-    segments (renumbered); with smaller tiles (seen zoomed in) they still cover the picture."""
-    from neuraltex.baselines import get_segmenter
-
-    rng = np.random.default_rng(0)
-    image = np.kron(rng.random((8, 8, 3)), np.ones((16, 16, 1)))  # 128 px of 16 px blocks
-    whole = get_segmenter("model")(image)
-    tiled = get_segmenter("model", tile=128)(image)
-    assert tiled.shape == whole.shape == (128, 128)
-    pairs = set(zip(whole.ravel().tolist(), tiled.ravel().tolist(), strict=True))
-    assert len(pairs) == len(np.unique(whole)) == len(np.unique(tiled))  # the same partition
-    small = get_segmenter("model", tile=64)(image)
-    assert small.shape == (128, 128) and small.min() >= 0 and len(np.unique(small)) > 4
-    # tile_from: tiles only for a picture whose whole run has at least that many segments
-    sparse = get_segmenter("model", tile=64, tile_from=len(np.unique(whole)) + 1)(image)
-    assert np.array_equal(sparse, whole)
-    dense = get_segmenter("model", tile=64, tile_from=len(np.unique(whole)))(image)
-    assert np.array_equal(dense, small)
-
-
-def test_at_side_runs_the_segmenter_at_that_size_and_maps_labels_back():
-    from neuraltex.tiled_segments import at_side
-
-    seen = []
-
-    def halves(part: np.ndarray) -> np.ndarray:  # left half 1, right half 2
-        seen.append(part.shape[:2])
-        out = np.ones(part.shape[:2], np.int64)
-        out[:, part.shape[1] // 2:] = 2
-        return out
-
-    labels = at_side(halves, 128)(np.zeros((32, 64, 3)))
-    assert seen == [(64, 128)] and labels.shape == (32, 64)
-    assert (labels[:, :32] == 1).all() and (labels[:, 32:] == 2).all()
+        tile_origins(90, 32, 32)
 
 
 def test_pixels_no_kept_segment_claims_go_to_the_nearest_claimed_one():
