@@ -101,6 +101,8 @@ def build_parser() -> argparse.ArgumentParser:
 
 def _add_image_args(syn) -> None:
     """Options of ``--from-image`` (a raster image vectorized into texton elements first)."""
+    from neuraltex.cli.common import add_tile_option
+
     img = syn.add_argument_group("from a raster image (vectorized into texton elements first)")
     img.add_argument("--from-image", metavar="IMAGE",
                      help="vectorize IMAGE (neuraltex vectorize) and use it as the exemplar; a "
@@ -108,6 +110,7 @@ def _add_image_args(syn) -> None:
     img.add_argument("--segmenter", default="model", choices=("model", "felzenszwalb"),
                      help="texton model (default) or the Felzenszwalb baseline")
     img.add_argument("--checkpoint", help="texton model .safetensors (default: the shipped one)")
+    add_tile_option(img, "--segmenter model: ")
     img.add_argument("--max-side", type=types.integer(16, 4096), default=256,
                      help="the image is downscaled to this side first (16-4096, default 256)")
     img.add_argument("--exemplar-out", type=types.output_file(".svg"),
@@ -280,7 +283,7 @@ def _from_image(args):
                              "MODEL.safetensors or --segmenter felzenszwalb")
         checkpoint = DEFAULT_MODEL
     svg, picture = vectorize_picture(args.from_image, args.segmenter, checkpoint,
-                                     max_side=args.max_side)
+                                     max_side=args.max_side, tile=args.tile)
     image = image_exemplar(svg)  # --exemplar-out is written with the output (write_outputs)
     if not args.no_lattice:  # a picture that repeats a tile keeps its lattice
         from neuraltex.raster_lattice import raster_lattice

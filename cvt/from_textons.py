@@ -28,19 +28,21 @@ class ImageExemplar:
 
 
 def vectorize_image(image_path, segmenter: str = "model", checkpoint=None, source: str = "masks",
-                    max_side: int = 256, kinds: int = 4, device: str = "cpu") -> str:
+                    max_side: int = 256, kinds: int = 4, device: str = "cpu",
+                    tile: str = "auto") -> str:
     """SVG text of a raster image, or of a texture file (.ntex: its fitted segments coloured by
     its tuned reconstruction; ``checkpoint`` is then its base model) (``neuraltex vectorize``
     as a function)."""
     return vectorize_picture(image_path, segmenter, checkpoint, source, max_side, kinds,
-                             device)[0]
+                             device, tile)[0]
 
 
 def vectorize_picture(image_path, segmenter: str = "model", checkpoint=None,
                       source: str = "masks", max_side: int = 256, kinds: int = 4,
-                      device: str = "cpu") -> tuple[str, np.ndarray]:
+                      device: str = "cpu", tile: str = "auto") -> tuple[str, np.ndarray]:
     """(:func:`vectorize_image`'s SVG, the picture it vectorized (H, W, 3) in [0, 1], one
-    pixel per SVG user unit)."""
+    pixel per SVG user unit). ``tile``: how the model encodes the picture
+    (:func:`neuraltex.tiled_encode.encode_image`)."""
     from pathlib import Path
 
     from neuraltex.imageio import load_image
@@ -60,7 +62,7 @@ def vectorize_picture(image_path, segmenter: str = "model", checkpoint=None,
         seg = drop_background(seg)
     else:
         image = load_image(image_path, max_side=max_side).to(device)
-        seg, _ = segment_image(image, segmenter, model, source)
+        seg, _ = segment_image(image, segmenter, model, source, tile=tile)
     params = VectorizeParams(kinds=kinds)
     picture = image.permute(1, 2, 0).cpu().numpy()
     return to_svg(vectorize(picture, seg, params), seg, params.seam), picture

@@ -116,7 +116,7 @@ MODEL_LABELS = ("masks", "splats", "refined", "guided")
 def model_segmenter(checkpoint: str, device: str = "cpu", labels: str = "masks",
                     num_queries: int | None = None,
                     guide: tuple[float, float] | None = None,
-                    tile: int | None = None, tile_from: int | None = None) -> Segmenter:
+                    tile: str = "off", tile_from: int | None = None) -> Segmenter:
     """The learned texton model as a segmenter: the one hook the autoencoder plugs into.
 
     ``labels="masks"``: each pixel goes to the query whose mask S (E_s) is largest there, i.e.
@@ -130,12 +130,10 @@ def model_segmenter(checkpoint: str, device: str = "cpu", labels: str = "masks",
     ``labels="guided"``: the upsampled masks relabelled pixel by pixel with each label's colour
     model (:func:`neuraltex.mask_refinement.colour_guided_labels`, with ``guide`` = (weight,
     reach), default its own); the queries that are not effective form one background label.
-    ``tile``: run on overlapping ``tile`` px tiles (overlapping by a quarter of a tile), each
-    resized to the model's training size (128 px: a 64 px tile is seen at 2x), and merge
-    their segments (:func:`neuraltex.tiled_segments.tiled_labels`); None: the whole picture
-    at once. ``tile_from``: tile only pictures whose whole-picture run gives at least that many
-    segments (a dense picture; :data:`neuraltex.tiled_segments.DENSE`, picked on the
-    validation split), else keep that run.
+    ``tile``: how the picture is encoded (:func:`neuraltex.tiled_encode.encode_image`): whole
+    (``"off"``), from overlapping tiles seen at twice the scale (``"on"``), or from tiles when
+    the whole-picture run gives at least ``tile_from`` segments (``"auto"``; default
+    :data:`neuraltex.tiled_segments.DENSE`, picked on the validation split).
     """
     import torch
     import torch.nn.functional as F
@@ -144,12 +142,16 @@ def model_segmenter(checkpoint: str, device: str = "cpu", labels: str = "masks",
     from neuraltex.model import DEFAULT_MODEL, load_model
     from neuraltex.segmenters import refine_to_image
     from neuraltex.splatting import opacity_maps
+    from neuraltex.tiled_encode import encode_image, mask_labels
+    from neuraltex.tiled_segments import DENSE, TILING
 
     checkpoint = checkpoint or DEFAULT_MODEL  # no --checkpoint: the shipped default model
     if not Path(checkpoint).exists():
         raise InputError(f"--method model: no model at {checkpoint}; pass --checkpoint PATH")
     if labels not in MODEL_LABELS:
         raise ValueError(f"labels must be one of {', '.join(MODEL_LABELS)}, got {labels!r}")
+    if tile not in TILING:
+        raise ValueError(f"tile must be one of {', '.join(TILING)}, got {tile!r}")
     model = load_model(checkpoint, device, num_queries=num_queries)
     weight, reach = guide or (WEIGHT, REACH)
 
@@ -158,13 +160,13 @@ def model_segmenter(checkpoint: str, device: str = "cpu", labels: str = "masks",
         _check_image(image)
         x = torch.from_numpy(np.ascontiguousarray(image, dtype=np.float32)).permute(2, 0, 1)
         H, W = x.shape[-2:]
-        enc = model.encode(x[None].to(device))
+        enc = encode_image(model, x[None].to(device), tile, dense_from=tile_from or DENSE)
         if labels != "splats":
-            masks = F.interpolate(enc.masks, size=(H, W), mode="bilinear", align_corners=False)
-            best = masks[0].argmax(0)  # (H, W)
-            effective = enc.textons.p[0] > 0.5  # (n,)
-            label = torch.where(effective[best], best + 1, torch.zeros_like(best))
+            label = mask_labels(enc, (H, W))
             if labels == "guided":  # label 0: the queries that are not effective, together
+                masks = F.interpolate(enc.masks, size=(H, W), mode="bilinear",
+                                      align_corners=False)
+                effective = enc.textons.p[0] > 0.5  # (n,)
                 layers = torch.cat([masks[0, ~effective].sum(0, keepdim=True),
                                     masks[0, effective]])  # (1 + k, H, W)
                 label = colour_guided_labels(layers, x, weight, reach)
@@ -178,19 +180,6 @@ def model_segmenter(checkpoint: str, device: str = "cpu", labels: str = "masks",
             label[weights.amax(0) < 0.05] = 0
         return label.cpu().numpy().astype(np.int64)
 
-    if tile:
-        from neuraltex.tiled_segments import at_side, tiled_labels
-
-        native = at_side(segment, model.native_size or tile)  # each tile at training size
-
-        def tiled(image: np.ndarray) -> np.ndarray:
-            if tile_from:
-                whole = segment(image)
-                if len(np.unique(whole)) < tile_from:  # not dense: the whole-picture run
-                    return whole
-            return tiled_labels(native, image, tile, tile // 4)
-
-        return tiled
     return segment
 
 
@@ -220,7 +209,7 @@ def get_segmenter(name: str, value: float | None = None,
                   checkpoint: str | None = None, model_labels: str = "masks",
                   num_queries: int | None = None,
                   guide: tuple[float, float] | None = None,
-                  tile: int | None = None, tile_from: int | None = None) -> Segmenter:
+                  tile: str = "off", tile_from: int | None = None) -> Segmenter:
     """Build method ``name`` (a key of ``METHODS`` or ``"model"``, with ``model_labels``,
     ``num_queries``, ``guide``, ``tile`` and ``tile_from`` as in :func:`model_segmenter`) at
     ``value``."""

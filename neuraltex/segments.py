@@ -63,6 +63,30 @@ def from_weights(weights: torch.Tensor, threshold: float = 0.0) -> tuple[np.ndar
     return labels.cpu().numpy().astype(np.int64), margin.cpu().numpy().astype(np.float32)
 
 
+def _mask_labels(masks: torch.Tensor, size: tuple[int, int],
+                 chunk: int = 64) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`from_weights` of masks (K, h, w) upsampled (bilinear) to ``size`` and normalized
+    over K, ``chunk`` masks at a time: memory stays O(chunk x H x W) however many textons a
+    tiled encoding holds. Shape: -> (H, W) int64, (H, W) float32."""
+    def up(m: torch.Tensor) -> torch.Tensor:
+        return F.interpolate(m[None].float(), size=size, mode="bilinear",
+                             align_corners=False)[0]
+
+    if len(masks) == 1:
+        return from_weights(up(masks) / up(masks).clamp_min(1e-8))
+    total = up(masks.sum(0, keepdim=True))[0].clamp_min(1e-8)  # interpolation is linear
+    values = torch.full((2, *size), -1.0)
+    index = torch.zeros((2, *size), dtype=torch.long)
+    for start in range(0, len(masks), chunk):
+        w = up(masks[start:start + chunk]) / total  # (c, H, W)
+        top = torch.topk(torch.cat([values, w.to(values)]), 2, dim=0)
+        index = torch.cat([index, torch.arange(start, start + len(w))[:, None, None]
+                           .expand(-1, *size)]).gather(0, top.indices)
+        values = top.values
+    margin = (values[0] - values[1].clamp_min(0)).clamp_min(0)
+    return index[0].cpu().numpy().astype(np.int64), margin.cpu().numpy().astype(np.float32)
+
+
 def from_labels(labels: np.ndarray, image: np.ndarray) -> Segments:
     """Hard labels (any ints) of an image (H, W, 3) in [0, 1]; e.g. Felzenszwalb segments.
 
@@ -98,11 +122,7 @@ def from_textons(textons: Textons, masks: torch.Tensor, size: tuple[int, int],
     keep = torch.nonzero(textons.delta[0] > 0.5).flatten()  # (K',)
     H, W = size
     if source == "masks":
-        m = F.interpolate(masks[None].float(), size=(H, W), mode="bilinear",
-                          align_corners=False)[0]  # (n, H, W)
-        weights = m[keep]
-        weights = weights / weights.sum(0, keepdim=True).clamp_min(1e-8)
-        labels, margin = from_weights(weights) if len(keep) else _empty(H, W)
+        labels, margin = _mask_labels(masks[keep], (H, W)) if len(keep) else _empty(H, W)
     else:
         from neuraltex.splatting import opacity_maps
 
@@ -146,11 +166,13 @@ def drop_background(seg: Segments, min_share: float = 0.25) -> Segments:
 
 
 def segment_image(image: torch.Tensor, method: str = "model", model=None,
-                  source: str = "masks",
-                  background: bool = True) -> tuple[Segments, Textons | None]:
-    """Segments of an image (3, H, W) in [0, 1] by the texton ``model`` or a classical segmenter
-    (a name of :data:`neuraltex.baselines.METHODS`); also the textons when the model made them.
-    With ``background`` a backdrop segment goes to the background layer (:func:`drop_background`).
+                  source: str = "masks", background: bool = True,
+                  tile: str = "auto") -> tuple[Segments, Textons | None]:
+    """Segments of an image (3, H, W) in [0, 1] by the texton ``model`` (encoding the picture
+    whole or from tiles as ``tile`` says, :func:`neuraltex.tiled_encode.encode_image`) or a
+    classical segmenter (a name of :data:`neuraltex.baselines.METHODS`); also the textons
+    when the model made them. With ``background`` a backdrop segment goes to the background
+    layer (:func:`drop_background`).
     """
     H, W = image.shape[-2:]
     textons = None
@@ -160,8 +182,10 @@ def segment_image(image: torch.Tensor, method: str = "model", model=None,
         arr = image.permute(1, 2, 0).cpu().numpy().astype(np.float64)
         seg = from_labels(get_segmenter(method)(arr), arr)
     else:
+        from neuraltex.tiled_encode import encode_image
+
         with torch.no_grad():
-            enc = model.encode(image[None])
+            enc = encode_image(model, image[None], tile)
             seg = from_textons(enc.textons, enc.masks[0], (H, W), source, cutoff=model.cutoff)
         textons = enc.textons
     return (drop_background(seg) if background else seg), textons

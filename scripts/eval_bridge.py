@@ -92,7 +92,7 @@ def element_labels(svg: str, shape: tuple[int, int]) -> np.ndarray:
 
 
 def vector_row(image: np.ndarray, gt, pipeline: str, model, params: VectorizeParams,
-               source: str) -> tuple[dict, str]:
+               source: str, tile: str = "auto") -> tuple[dict, str]:
     from skimage.metrics import peak_signal_noise_ratio, structural_similarity
 
     from neuraltex.metrics import matched_miou
@@ -101,7 +101,7 @@ def vector_row(image: np.ndarray, gt, pipeline: str, model, params: VectorizePar
     if pipeline == "vtracer":
         svg, count = vtracer_svg(image)
     else:
-        seg = segments(image, pipeline, model, source)
+        seg = segments(image, pipeline, model, source, tile)
         vec = vectorize(image, seg, params)
         svg, count = to_svg(vec, seg, params.seam), len(vec.elements)
     row = {"t_vec": time.perf_counter() - t, "elements": count,
@@ -114,11 +114,12 @@ def vector_row(image: np.ndarray, gt, pipeline: str, model, params: VectorizePar
     return row, svg
 
 
-def segments(image: np.ndarray, pipeline: str, model, source: str):
-    """The segments a pipeline vectorizes; ``fit``: the ones a texture file stores."""
+def segments(image: np.ndarray, pipeline: str, model, source: str, tile: str = "auto"):
+    """The segments a pipeline vectorizes (``model``: the picture encoded whole or from tiles
+    as ``tile`` says); ``fit``: the ones a texture file stores."""
     x = torch.from_numpy(image).permute(2, 0, 1).float()
     if pipeline != "fit":
-        return segment_image(x, pipeline, model, source)[0]
+        return segment_image(x, pipeline, model, source, tile=tile)[0]
     from neuraltex.fit import choose_segments
     from neuraltex.segments import drop_background, from_labels
 
@@ -201,6 +202,10 @@ def main() -> None:
     ap.add_argument("--source", choices=("masks", "splat"), default="masks",
                     help="model pipeline: element shapes from the masks (default) or from the "
                     "splatted Gaussians")
+    ap.add_argument("--tile", choices=("auto", "on", "off"), default="auto",
+                    help="model pipeline: encode the picture whole (off), from tiles (on), or "
+                    "from tiles where it is dense (auto, as the commands; neuraltex."
+                    "tiled_encode)")
     ap.add_argument("--no-gradient", action="store_true",
                     help="flat-coloured elements (no linear gradient fills)")
     ap.add_argument("--synth", action="store_true",
@@ -228,7 +233,7 @@ def main() -> None:
     bar = tqdm([(d, p) for d in data for p in args.pipelines], file=sys.stderr, unit="run")
     for (name, image, gt), pipe in bar:
         bar.set_description(f"{name} / {pipe}")
-        row, svg = vector_row(image, gt, pipe, model, params, args.source)
+        row, svg = vector_row(image, gt, pipe, model, params, args.source, args.tile)
         if args.synth:
             row.update(synth_row(image, svg, args))
         results.append((gt is not None, pipe, row))
@@ -240,7 +245,7 @@ def main() -> None:
             sel = [r for k, p, r in results if k == kind and p == pipe]
             if sel:
                 means.append([label, pipe] + [_mean([r[c] for r in sel]) for c in cols])
-    setting = (f"{args.size} px, source {args.source}, gradients "
+    setting = (f"{args.size} px, source {args.source}, tile {args.tile}, gradients "
                f"{'off' if args.no_gradient else 'on'}"
                + (f"; synthesis 2x, {args.levels} levels x {args.iterations} iterations, "
                   f"init {args.init}, w_a {args.w_a:g}, seed {args.seed}"

@@ -4,9 +4,12 @@ one texton per element).
 For each texture of data/real_textures/counts.csv (the hand count and how it was made): how
 many segments or textons each method gives, and that number over the hand count.
 
-- ``E_s shipped`` / ``E_s CHECKPOINT``: the learned segmenter's effective textons (masks of
-  queries with p > 0.5 covering at least ``MIN_SHARE`` of the picture), the shipped model and
-  optionally another export (``--checkpoint``, e.g. the long E_s run);
+- ``E_s shipped, whole`` / ``E_s CHECKPOINT``: the learned segmenter's effective textons
+  (masks of queries with p > 0.5 covering at least ``MIN_SHARE`` of the picture) of the whole
+  picture, the shipped model and optionally another export (``--checkpoint``, e.g. the long
+  E_s run);
+- ``E_s shipped, tile auto``: the shipped model's textons as the commands encode a picture by
+  default (from tiles where it is dense, neuraltex.tiled_encode);
 - ``fit textons`` / ``fit elements``: a texture file's effective textons, and its elements
   (neuraltex.texton_elements: textons grouped into objects) other than background ones;
 - ``felzenszwalb`` / ``kmeans``: the classical segmenters at their tuned defaults
@@ -69,17 +72,19 @@ def main() -> None:
     add_texture_options(p)
     p.add_argument("--checkpoint", type=Path, help="another E_s export to count beside the "
                    "shipped model's")
-    p.add_argument("--tile", type=int, default=128, help="also count E_s run on overlapping "
-                   "tiles of this side (neuraltex.tiled_segments; 0: not)")
+    p.add_argument("--tile", choices=("auto", "on", "off"), default="auto",
+                   help="also count E_s's textons from tiles: as the commands encode by default "
+                   "(auto: tiles for dense pictures), always (on), or not (off); "
+                   "neuraltex/tiled_encode.py")
     p.add_argument("--pictures", type=Path, help="also write a PNG of what is counted: a row "
                    "per texture, the picture then each segmenter's segments in colour")
     args = p.parse_args()
     with open(args.textures / "counts.csv", newline="") as f:
         counts = [(r["file"], int(r["elements"])) for r in csv.DictReader(f)]
     model = common.load(None)
-    methods = {"E_s shipped": (get_segmenter("model"), True)}
-    if args.tile:
-        methods[f"E_s on {args.tile} px tiles"] = (get_segmenter("model", tile=args.tile), True)
+    methods = {"E_s shipped, whole": (get_segmenter("model"), True)}
+    if args.tile != "off":
+        methods[f"E_s shipped, tile {args.tile}"] = (get_segmenter("model", tile=args.tile), True)
     if args.checkpoint:
         methods[f"E_s {args.checkpoint.parent.name or args.checkpoint.stem}"] = (
             get_segmenter("model", checkpoint=str(args.checkpoint)), True)

@@ -28,7 +28,7 @@ from neuraltex.evaluation import family_table, score, summary_table, tune  # noq
 from neuraltex.fileio import write_text_atomic  # noqa: E402
 from neuraltex.limits import MAX_TEXTONS  # noqa: E402
 from neuraltex.mask_refinement import REACH, WEIGHT  # noqa: E402
-from neuraltex.tiled_segments import DENSE  # noqa: E402
+from neuraltex.tiled_segments import DENSE, TILING  # noqa: E402
 
 LEGEND = """\
 Metrics (neuraltex/metrics.py): **miou** = Hungarian-matched mean IoU over ground-truth
@@ -60,13 +60,13 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--num-queries", type=int, default=None,
                    help="--method model: resample E_s's query grid to this many queries "
                         "(no training; for dense textures, e.g. 196)")
-    p.add_argument("--tile", type=int, default=None,
-                   help="--method model: run E_s on overlapping tiles of this side, each seen "
-                        "at the model's training size (64 on the 128 px benchmark: zoomed 2x; "
-                        "neuraltex/tiled_segments.py)")
+    p.add_argument("--tile", choices=TILING, default="off",
+                   help="--method model: encode the whole picture (off), from overlapping tiles "
+                        "seen at twice the scale (on), or from tiles when the whole-picture run "
+                        "is dense (auto; neuraltex/tiled_encode.py)")
     p.add_argument("--tile-from", type=int, default=None,
-                   help="with --tile: tile only pictures whose whole-picture run gives at least "
-                        f"this many segments (dense ones; {DENSE}, picked on the validation "
+                   help="with --tile auto: a picture is dense from this many segments of the "
+                        f"whole-picture run on (default {DENSE}, picked on the validation "
                         "split: neuraltex.tiled_segments.DENSE)")
     p.add_argument("--families", default=None,
                    help="comma list of families to score (default: all), e.g. discs,dots")
@@ -101,10 +101,8 @@ def main(argv: list[str] | None = None) -> int:
         raise InputError("--guided-weight must be >= 0 and --guided-reach in [0, 1]")
     if args.limit is not None and args.limit < 1:
         raise InputError("--limit must be >= 1")
-    if args.tile is not None and not 16 <= args.tile <= 4096:
-        raise InputError("--tile must be in [16, 4096] px")
-    if args.tile_from is not None and (args.tile is None or args.tile_from < 1):
-        raise InputError("--tile-from needs --tile and must be >= 1")
+    if args.tile_from is not None and (args.tile != "auto" or args.tile_from < 1):
+        raise InputError("--tile-from needs --tile auto and must be >= 1")
     progress = not args.quiet
     items = benchmark_split() if args.split == "benchmark" else validation_split()
     if args.families:
@@ -131,8 +129,8 @@ def main(argv: list[str] | None = None) -> int:
                 f" weight={args.guided_weight:g} reach={args.guided_reach:g}"
                 if args.model_labels == "guided" else "") + (
                 f" queries={args.num_queries}" if args.num_queries else "") + (
-                f" tile={args.tile}" if args.tile else "") + (
-                f" from {args.tile_from} segments" if args.tile and args.tile_from else "")
+                f" tile={args.tile}" if args.tile != "off" else "") + (
+                f" from {args.tile_from} segments" if args.tile_from else "")
         else:
             m = METHODS[name]
             value = m.default if args.param is None else args.param

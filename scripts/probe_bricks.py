@@ -10,9 +10,10 @@ its look with a quarter of the bricks each. The same regions drawn flat (bricks 
 0.7, a little noise) keep the layout and drop the photograph's look; drawn with a colour per
 brick they look like the procedural ``bricks`` family's colouring. The procedural family's
 own bricks (running bond, short, horizontal), drawn grey and flat the same way, keep that
-look with the training layout. E_s on tiles (``--tile``) is the patch-wise segmentation of
-:mod:`neuraltex.tiled_segments`. Felzenszwalb and k-means see the threshold the regions
-come from, so on the photograph they are a ceiling, not a rival.
+look with the training layout. ``E_s, tile auto`` is the patch-wise encoding of
+:mod:`neuraltex.tiled_encode`, as the commands encode by default. Felzenszwalb and k-means
+see the threshold the regions come from, so on the photograph they are a ceiling, not a
+rival.
 
     python scripts/probe_bricks.py
 """
@@ -93,9 +94,9 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--procedural", type=int, default=6,
                    help="procedural bricks pictures (128 px) for the last row")
     p.add_argument("--checkpoint", default=None, help="E_s export (default: the shipped model)")
-    p.add_argument("--tile", type=int, default=128,
-                   help="E_s also run on overlapping tiles of this side (neuraltex."
-                   "tiled_segments; 128: the shipped model's training size)")
+    p.add_argument("--tile", choices=("auto", "on"), default="auto",
+                   help="E_s also encoding from tiles: as the commands do by default (auto: "
+                   "tiles for dense pictures) or always (on); neuraltex/tiled_encode.py")
     p.add_argument("--queries", type=int, nargs="*", default=[196, 400],
                    help="also run E_s with its queries resampled to these counts")
     args = p.parse_args(argv)
@@ -103,8 +104,8 @@ def main(argv: list[str] | None = None) -> int:
     bricks, ids = photo_bricks(photo.mean(2))
     rng = np.random.default_rng(0)
     methods = {"E_s": get_segmenter("model", checkpoint=args.checkpoint),
-               f"E_s on {args.tile} px tiles": get_segmenter("model", checkpoint=args.checkpoint,
-                                                            tile=args.tile),
+               f"E_s, tile {args.tile}": get_segmenter("model", checkpoint=args.checkpoint,
+                                                       tile=args.tile),
                "felzenszwalb": get_segmenter("felzenszwalb"), "kmeans": get_segmenter("kmeans")}
     half = tuple(side // 2 for side in bricks.shape)
     rows = {"the photograph": [(photo, bricks, ids)],

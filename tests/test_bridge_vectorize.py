@@ -162,3 +162,22 @@ def test_cli_felzenszwalb_and_bad_input(tmp_path, capsys):
                  "--segmenter", "felzenszwalb"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 3 and all(line.startswith("neuraltex: error:") for line in err)
+
+
+def test_mask_labels_in_chunks_equal_the_whole_argmax():
+    """from_textons' labels from masks taken a chunk at a time (memory O(chunk x H x W) for
+    the hundreds of textons of a tiled encoding) equal the argmax of all masks upsampled and
+    normalized at once, margins included (ties, all-zero pixels, aside)."""
+    import torch.nn.functional as F
+
+    from neuraltex.segments import _mask_labels
+
+    torch.manual_seed(0)
+    for k in (1, 2, 5, 150):
+        masks = torch.rand(k, 9, 7).softmax(0) * (torch.rand(1, 9, 7) > 0.2)
+        up = F.interpolate(masks[None], size=(20, 15), mode="bilinear", align_corners=False)[0]
+        labels, margin = from_weights(up / up.sum(0, keepdim=True).clamp_min(1e-8))
+        got, got_margin = _mask_labels(masks, (20, 15), chunk=4)
+        assert np.allclose(got_margin, margin, atol=1e-6)
+        assert np.array_equal(got[margin > 0], labels[margin > 0])
+

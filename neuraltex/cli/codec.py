@@ -22,7 +22,8 @@ def cmd_encode(args: argparse.Namespace) -> int:
     if args.overlay:
         check_output_path(args.overlay)
     model = common.load(args.checkpoint, args.device, args.seed)
-    image, enc = common.encode(model, args.image, common.limits(args), args.device)
+    image, enc = common.encode(model, args.image, common.limits(args), args.device,
+                              args.tile)
     save_textons(enc.textons, args.output)
     n = int(enc.textons.num_effective()[0])
     print(f"wrote {args.output}: {n} effective textons of {enc.textons.num_textons}")
@@ -57,7 +58,8 @@ def cmd_reconstruct(args: argparse.Namespace) -> int:
 
     check_output_path(args.output)
     model = common.load(args.checkpoint, args.device, args.seed)
-    tex = common.textons_of(model, args.image, common.limits(args), args.device)
+    tex = common.textons_of(model, args.image, common.limits(args), args.device,
+                            args.tile)
     size = common.output_size(args.size, tex.textons.canvas, tex.short, common.limits(args))
     common.save(common.decode(tex.decoder or model, tex.textons, size, args.device)[0],
                 args.output)
@@ -76,7 +78,8 @@ def cmd_overlay(args: argparse.Namespace) -> int:
     if args.svg:
         check_writable(args.svg)
     model = common.load(args.checkpoint, args.device, args.seed)
-    image, enc = common.encode(model, args.image, common.limits(args), args.device)
+    image, enc = common.encode(model, args.image, common.limits(args), args.device,
+                              args.tile)
     save_pil(draw_overlay(image, enc.textons, enc.masks[0], scale=args.scale), args.output)
     print(f"wrote {args.output}")
     if args.svg:

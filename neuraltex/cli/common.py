@@ -58,17 +58,19 @@ def limits(args: argparse.Namespace) -> Limits:
     return Limits(args.max_side, args.max_pixels, args.max_aspect)
 
 
-def encode(model: TextonAutoencoder, path: Path, lim: Limits,
-           device: str = "cpu") -> tuple[Tensor, Encoded]:
-    """(image (3, H, W) in [0, 1], ``model.encode(image)``) of the image at ``path``; images
-    beyond the budget ``lim`` are downscaled first."""
+def encode(model: TextonAutoencoder, path: Path, lim: Limits, device: str = "cpu",
+           tile: str = "auto") -> tuple[Tensor, Encoded]:
+    """(image (3, H, W) in [0, 1], its encoding) of the image at ``path``, whole or from tiles
+    as ``tile`` says (:func:`neuraltex.tiled_encode.encode_image`); images beyond the budget
+    ``lim`` are downscaled first."""
     import torch
 
     from neuraltex.imageio import load_image
+    from neuraltex.tiled_encode import encode_image
 
     image = load_image(path, limits=lim).to(device)
     with torch.no_grad():
-        return image, model.encode(image[None])
+        return image, encode_image(model, image[None], tile)
 
 
 @dataclass
@@ -85,9 +87,10 @@ class Texture:
     header: dict | None = None  # a texture file's header (source, size, fit ...)
 
 
-def textons_of(model: TextonAutoencoder, path: Path, lim: Limits,
-               device: str = "cpu") -> Texture:
-    """The textons of a texture given as an image (encoded by ``model``), a texton file
+def textons_of(model: TextonAutoencoder, path: Path, lim: Limits, device: str = "cpu",
+               tile: str = "auto") -> Texture:
+    """The textons of a texture given as an image (encoded by ``model``, whole or from tiles
+    as ``tile`` says), a texton file
     (.json/.pt, checked against the model; it must hold one set) or a texture file (.ntex,
     tuned from ``model`` by ``neuraltex fit``; it brings its own decoder)."""
     import torch
@@ -108,7 +111,7 @@ def textons_of(model: TextonAutoencoder, path: Path, lim: Limits,
         if t.batch_size != 1:
             raise InputError(f"{path}: holds {t.batch_size} texton sets; editing takes one")
         return Texture(t.to(device=device, dtype=torch.float32), 256)
-    image, enc = encode(model, path, lim, device)
+    image, enc = encode(model, path, lim, device, tile)
     return Texture(enc.textons, min(image.shape[-2:]), image, enc.masks[0])
 
 
@@ -248,5 +251,19 @@ def model_command(sub, name: str, func, help: str, source: str, output_help: str
     p.add_argument(source, type=Path, help=f"input {source}")
     p.add_argument("-o", "--output", type=Path, required=True, help=output_help)
     add_model_options(p, size=size, max_pixels=max_pixels)
+    if source != "textons":
+        add_tile_option(p)
     p.set_defaults(func=func)
     return p
+
+
+def add_tile_option(p, note: str = "") -> None:
+    """--tile: how an input image is encoded (neuraltex.tiled_encode); ``p`` a parser or an
+    argument group, ``note`` the start of the help."""
+    from neuraltex.tiled_segments import DENSE, TILING
+
+    p.add_argument("--tile", choices=TILING, default="auto",
+                   help=f"{note}an input image is encoded whole (off), from overlapping tiles "
+                   "seen at twice the scale (on: one texton per element on dense pictures, "
+                   f"e.g. a brick wall), or from tiles when the whole picture gives {DENSE} or "
+                   "more segments (auto, the default)")

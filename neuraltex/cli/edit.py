@@ -29,7 +29,7 @@ def _load(args: argparse.Namespace):
 
 def _texture(args: argparse.Namespace, model, path: Path) -> common.Texture:
     """One texture: an image, a texton file or a texture file (.ntex, with its decoder)."""
-    return common.textons_of(model, path, common.limits(args), args.device)
+    return common.textons_of(model, path, common.limits(args), args.device, args.tile)
 
 
 def _decode(args: argparse.Namespace, model, textons, default_short: int):
@@ -360,7 +360,8 @@ def _original(args: argparse.Namespace, model, size: tuple[int, int]):
     """(original image (3, H, W), its textons, feature channels to compare) for propagate:
     an image encoded by the model, or a texture file's reconstruction at the edited size."""
     if args.image.suffix.lower() != common.TEXTURE_FILE:
-        original, enc = common.encode(model, args.image, common.limits(args), args.device)
+        original, enc = common.encode(model, args.image, common.limits(args), args.device,
+                                      args.tile)
         return original, enc.textons, None
     tex = _texture(args, model, args.image)
     w, h = tex.textons.canvas

@@ -42,7 +42,8 @@ def _run(args: argparse.Namespace) -> int:
     if args.preview_textons is not None:
         _check_svg(args.preview_textons)
     model = common.load(args.checkpoint, args.device, args.seed)
-    tex = common.textons_of(model, args.texture, common.limits(args), args.device)
+    tex = common.textons_of(model, args.texture, common.limits(args), args.device,
+                            args.tile)
     decoder, (textons,) = common.decoder_for(model, tex)
     size = _size(args, textons.canvas, tex.short)
     source = _source(args, tex)

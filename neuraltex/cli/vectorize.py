@@ -33,7 +33,7 @@ def cmd_vectorize(args: argparse.Namespace) -> int:
     else:
         image = load_image(args.image, limits=common.limits(args)).to(args.device)
         seg, textons = segment_image(image, args.segmenter, model, args.source,
-                                     background=not args.keep_backdrop)
+                                     background=not args.keep_backdrop, tile=args.tile)
     params = VectorizeParams(gradient=not args.no_gradient, background=args.background,
                              kinds=args.kinds)
     arr = image.permute(1, 2, 0).cpu().numpy()
