@@ -181,3 +181,17 @@ def test_mask_labels_in_chunks_equal_the_whole_argmax():
         assert np.allclose(got_margin, margin, atol=1e-6)
         assert np.array_equal(got[margin > 0], labels[margin > 0])
 
+
+def test_a_joint_network_spanning_the_picture_is_the_backdrop():
+    """The mortar of a wall covers a fifth of it and touches every side: the backdrop, not an
+    element; a large element that does not reach every side stays."""
+    img = np.zeros((50, 50, 3))
+    labels = np.zeros((50, 50), np.int64)  # 0: the joints, 1 px wide
+    for i, (r, c) in enumerate(np.ndindex(5, 5)):
+        labels[1 + 10 * r: 10 + 10 * r, 1 + 10 * c: 10 + 10 * c] = i + 1
+    assert 0.1 < (labels == 0).mean() < 0.25
+    seg = drop_background(from_labels(labels, img))
+    assert (seg.labels < 0).sum() == (labels == 0).sum()
+    blob = np.where(np.arange(50)[None, :] < 40, 1, 2) * np.ones((50, 1), np.int64)
+    blob[45:, :] = 3  # the largest segment misses the bottom side
+    assert (drop_background(from_labels(blob, img)).labels >= 0).all()
