@@ -231,8 +231,8 @@ def cmd_synthesize(args) -> int:
                          debug / f"level{state.level}_iter{state.iteration}.png")
 
     opts = _pattern_options(args, box)
-    if image is not None and image.lattice is not None:
-        opts = dataclasses.replace(opts, basis=image.lattice)
+    if image is not None:  # a picture's segments: single elements, its lattice if any
+        opts = dataclasses.replace(opts, composites=False, basis=image.lattice)
     try:
         pattern = synthesize_pattern(ex, size, cfg, args.method, opts, on_iteration)
     finally:

@@ -60,6 +60,11 @@ class PatternOptions:
     # the density repair then adds and removes single elements, not composites. None: kinds
     # from the markup (cvt.kinds.element_kinds).
     kinds: np.ndarray | None = None
+    # The density repair adds and removes composites (cvt.canvas.composites: elements sitting
+    # on each other, a heart with its butterfly). False: single elements, for an exemplar whose
+    # elements partition a picture (a vectorized image's segments touch, their boxes overlap,
+    # and chained into composites a brick wall's 117 bricks were one group of 115).
+    composites: bool = True
     # A lattice found by the caller, rows a, b in exemplar units (e.g. on the picture an
     # exemplar was vectorized from: neuraltex.raster_lattice), whose elements' kinds are too
     # fine to repeat exactly: its cells are tiled (cvt.lattice.cell_copies) instead of
@@ -113,7 +118,8 @@ def synthesize_pattern(ex: Exemplar, size: tuple[float, float], cfg: SynthesisCo
     placed = keep_on_canvas(placed, boxes, cut, out_box, inside)
     if opts.density and (lat is None or opts.domain is not None):
         area = opts.domain.area if opts.domain is not None else size[0] * size[1]
-        groups = composites(boxes, cut) if opts.kinds is None else [[e] for e in range(len(kinds))]
+        groups = (composites(boxes, cut) if opts.kinds is None and opts.composites
+                  else [[e] for e in range(len(kinds))])
         placed = _repair(placed, ex, boxes, cut, kinds, groups, out_box, area, cfg.seed, inside,
                          torus)
     if torus is not None:

@@ -144,7 +144,8 @@ def synth_row(image: np.ndarray, svg: str, args) -> dict:
     """The 2x synthesis as ``cvt synthesize --from-image`` runs it: the picture's lattice
     (neuraltex.raster_lattice, unless ``--no-lattice``) tiles the output with the exemplar's
     cells, else cvt's pattern pipeline (the seed method, density repair) arranges the
-    elements freely; rasterized with the exemplar's backdrop."""
+    elements freely (single elements: a picture's segments are no composites); rasterized
+    with the exemplar's backdrop."""
     from cvt.from_textons import image_exemplar, with_backdrop
     from cvt.pattern import PatternOptions, pattern_svg, synthesize_pattern
     from cvt.synthesis import SynthesisConfig
@@ -156,7 +157,7 @@ def synth_row(image: np.ndarray, svg: str, args) -> dict:
     cfg = SynthesisConfig(levels=args.levels, iterations=args.iterations, seed=args.seed,
                           init=args.init, w_a=args.w_a)
     lattice = None if args.no_lattice else raster_lattice(image)
-    opts = PatternOptions(lattice=not args.no_lattice, basis=lattice)
+    opts = PatternOptions(lattice=not args.no_lattice, basis=lattice, composites=False)
     t = time.perf_counter()
     pattern = synthesize_pattern(ex, size, cfg, "full", opts)
     res = pattern.result

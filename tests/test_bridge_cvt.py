@@ -198,3 +198,46 @@ def test_eval_bridge_synthesis_runs_the_from_image_pipeline(tmp_path):
     assert tiled["out_elements"] >= 4 * 16 * 2  # 2x: 8 x 8 cells of at least two discs
     assert tiled["swd"] < free["swd"]  # the tile continued is closer to the picture
     assert eval_bridge._mean(["yes", "no", "yes"]) == "2/3"
+
+
+def _cells(path, side: int = 96, cells: int = 60) -> None:
+    """A picture that its segments partition: Voronoi cells of random colours with light
+    joints; the cells' boxes overlap their neighbours', as a wall's irregular stones do."""
+    from scipy.spatial import cKDTree
+
+    rng = np.random.default_rng(0)
+    yy, xx = np.mgrid[0:side, 0:side]
+    cell = cKDTree(rng.random((cells, 2)) * side).query(np.c_[xx.ravel(), yy.ravel()])[1]
+    cell = cell.reshape(side, side)
+    img = (rng.random((cells, 3)) * 0.5 + 0.3)[cell]
+    joint = np.zeros((side, side), bool)
+    joint[:, 1:] |= cell[:, 1:] != cell[:, :-1]
+    joint[1:] |= cell[1:] != cell[:-1]
+    img[joint] = 0.9
+    Image.fromarray((img * 255).astype(np.uint8)).save(path)
+
+
+@pytest.mark.slow
+def test_from_image_of_touching_segments_fills_the_whole_canvas(tmp_path):
+    """A picture's segments touch, so their boxes overlap; chained into composites they made
+    one group of nearly all elements, and the density repair left a quarter of the 2x canvas
+    empty. Arranged as single elements, every quarter holds its share."""
+    from cvt.limits import SvgLimits
+
+    _cells(tmp_path / "in.png")
+    out, ex = tmp_path / "out.svg", tmp_path / "ex.svg"
+    assert main(["synthesize", "--from-image", str(tmp_path / "in.png"), "-o", str(out),
+                 "--exemplar-out", str(ex), "--segmenter", "felzenszwalb", "--scale", "2",
+                 "--no-lattice", "--levels", "2", "--iterations", "3", "--quiet"]) == 0
+    big = SvgLimits(max_elements=5000)
+    exemplar = [e for e in parse_svg(ex.read_bytes(), limits=big).elements
+                if e.node.get("data-background") != "1"]
+    result = parse_svg(out.read_bytes(), limits=big)
+    placed = [e for e in result.elements if e.node.get("data-background") != "1"]
+    assert len(placed) > 3 * len(exemplar)
+    centres = np.array([(e.bbox[:2] + e.bbox[2:]) / 2 for e in placed])
+    half = result.viewbox[2] / 2
+    for right in (False, True):
+        for low in (False, True):
+            quarter = ((centres[:, 0] >= half) == right) & ((centres[:, 1] >= half) == low)
+            assert quarter.sum() > 0.15 * len(placed)
