@@ -178,3 +178,20 @@ def test_cli_tile_option_encodes_a_dense_photograph_from_tiles(tmp_path, capsys)
     assert effective["off"] <= 100 < effective["on"] == effective["auto"]
     assert main(["encode", str(photo), "-o", str(tmp_path / "x.json"), "--tile", "maybe"]) == 2
     assert "--tile" in capsys.readouterr().err
+
+
+def test_bench_script_times_both_encodings(capsys):
+    """scripts/bench_tiled_encode.py on one real texture: a row per encoding, the whole run
+    tiles no picture, --tile on tiles it and finds more textons."""
+    import sys
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "scripts"))
+    import bench_tiled_encode
+
+    assert bench_tiled_encode.main(["--limit", "1", "--sizes", "128", "--repeats", "1"]) == 0
+    rows = [line.split("|") for line in capsys.readouterr().out.splitlines()
+            if line.startswith("| 128 |")]
+    by = {r[2].strip(): r for r in rows}
+    assert set(by) == {"whole", "tile on", "tile auto"}
+    assert by["whole"][6].strip() == "0 / 1" and by["tile on"][6].strip() == "1 / 1"
+    assert int(by["tile on"][4]) > int(by["whole"][4])
