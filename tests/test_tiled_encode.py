@@ -195,3 +195,25 @@ def test_bench_script_times_both_encodings(capsys):
     assert set(by) == {"whole", "tile on", "tile auto"}
     assert by["whole"][6].strip() == "0 / 1" and by["tile on"][6].strip() == "1 / 1"
     assert int(by["tile on"][4]) > int(by["whole"][4])
+
+
+@pytest.mark.slow
+def test_tiled_pictures_script_draws_both_rows(tmp_path):
+    """scripts/tiled_pictures.py on a small crop of the brick photograph, a short synthesis:
+    a picture of two rows (whole, patch-wise), each the photograph, its overlay and the
+    synthesis."""
+    import sys
+
+    from PIL import Image
+
+    root = Path(__file__).resolve().parents[1]
+    sys.path.insert(0, str(root / "scripts"))
+    import tiled_pictures
+
+    crop = tmp_path / "crop.png"
+    Image.open(root / "data" / "real_textures" / "brick.png").crop((0, 0, 96, 96)).save(crop)
+    out = tmp_path / "pic.png"
+    assert tiled_pictures.main(["--image", str(crop), "-o", str(out), "--scale", "1.5",
+                                "--levels", "1", "--iterations", "1"]) == 0
+    pic = Image.open(out)
+    assert pic.height == 2 * (96 + 16 + 4) and pic.width >= 3 * 96
