@@ -40,9 +40,9 @@ def draw_overlay(image: Tensor, textons: Textons, masks: Tensor | None = None,
     eff = np.zeros(n, dtype=bool)  # queries without a texton are never tinted
     eff[: textons.num_textons] = (textons.delta[0] > 0.5).cpu().numpy()
     if masks is not None:
-        m = torch.nn.functional.interpolate(masks[None].float(), size=(H, W), mode="bilinear",
-                                            align_corners=False)[0]
-        label = m.argmax(0).cpu().numpy()
+        from neuraltex.segments import mask_argmax
+
+        label = mask_argmax(masks, (H, W))[0]  # a chunk of masks at a time (bounded memory)
         tint = colours[label].astype(np.float32)
         keep = eff[label][..., None]
         img = np.where(keep, (1 - opacity) * img + opacity * tint, img).astype(np.uint8)

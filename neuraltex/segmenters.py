@@ -129,14 +129,18 @@ def kmeans_labels(arr: np.ndarray, max_segments: int, k: int = 8, seed: int = 0)
 
 
 def model_labels(model, image: torch.Tensor, max_segments: int) -> np.ndarray:
-    """E_s's argmax labels, refined to the image's edges at full resolution."""
+    """E_s's argmax labels (the picture encoded as the commands do, from tiles where it is
+    dense: :func:`neuraltex.tiled_encode.encode_image`), refined to the image's edges at full
+    resolution."""
+    from neuraltex.segments import mask_argmax
+    from neuraltex.tiled_encode import encode_image
+
     H, W = image.shape[-2:]
     with torch.no_grad():
-        enc = model.encode(image[None])
-    masks = F.interpolate(enc.masks, size=(H, W), mode="bilinear", align_corners=False)[0]
+        enc = encode_image(model, image[None])
     keep = enc.textons.delta[0] > 0.5  # (n,) effective textons only
-    masks = masks * keep[:, None, None] if keep.any() else masks
-    coarse = masks.argmax(0).cpu().numpy()
+    masks = enc.masks[0][keep] if keep.any() else enc.masks[0]
+    coarse = mask_argmax(masks, (H, W))[0]
     arr = image.permute(1, 2, 0).cpu().numpy().astype(np.float64)
     return _dense(refine_to_image(coarse, arr, max(max_segments, 4 * int(coarse.max() + 1))))
 
@@ -155,11 +159,11 @@ def soft_masks(labels: np.ndarray, softness: int = 1) -> torch.Tensor:
     ``softness``-pixel box blur across boundaries (E_g's moments need no more)."""
     lab = torch.from_numpy(np.ascontiguousarray(labels)).long()
     K = int(lab.max()) + 1
-    m = F.one_hot(lab, K).permute(2, 0, 1).float()[None]  # (1, K, H, W)
-    if softness > 0:
+    m = torch.zeros(1, K, *lab.shape).scatter_(1, lab[None, None], 1.0)  # (1, K, H, W)
+    if softness > 0:  # (float one-hot, no int64 copy: a tiled encoding has K in the hundreds)
         m = F.avg_pool2d(m, 2 * softness + 1, stride=1, padding=softness,
                          count_include_pad=False)
-    return m / m.sum(1, keepdim=True).clamp_min(1e-8)
+    return m.div_(m.sum(1, keepdim=True).clamp_min(1e-8))
 
 
 def _dense(labels: np.ndarray) -> np.ndarray:

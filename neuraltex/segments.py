@@ -63,25 +63,26 @@ def from_weights(weights: torch.Tensor, threshold: float = 0.0) -> tuple[np.ndar
     return labels.cpu().numpy().astype(np.int64), margin.cpu().numpy().astype(np.float32)
 
 
-def _mask_labels(masks: torch.Tensor, size: tuple[int, int],
-                 chunk: int = 64) -> tuple[np.ndarray, np.ndarray]:
+def mask_argmax(masks: torch.Tensor, size: tuple[int, int],
+                chunk: int | None = None) -> tuple[np.ndarray, np.ndarray]:
     """:func:`from_weights` of masks (K, h, w) upsampled (bilinear) to ``size`` and normalized
-    over K, ``chunk`` masks at a time: memory stays O(chunk x H x W) however many textons a
-    tiled encoding holds. Shape: -> (H, W) int64, (H, W) float32."""
+    over K, ``chunk`` masks at a time (default: 2^24 values per chunk): memory stays bounded
+    however many textons a tiled encoding holds. Shape: -> (H, W) int64, (H, W) float32."""
     def up(m: torch.Tensor) -> torch.Tensor:
         return F.interpolate(m[None].float(), size=size, mode="bilinear",
                              align_corners=False)[0]
 
     if len(masks) == 1:
         return from_weights(up(masks) / up(masks).clamp_min(1e-8))
+    chunk = chunk or max(1, 2**24 // (size[0] * size[1]))
     total = up(masks.sum(0, keepdim=True))[0].clamp_min(1e-8)  # interpolation is linear
     values = torch.full((2, *size), -1.0)
-    index = torch.zeros((2, *size), dtype=torch.long)
+    index = torch.zeros((2, *size), dtype=torch.int32)
     for start in range(0, len(masks), chunk):
         w = up(masks[start:start + chunk]) / total  # (c, H, W)
         top = torch.topk(torch.cat([values, w.to(values)]), 2, dim=0)
-        index = torch.cat([index, torch.arange(start, start + len(w))[:, None, None]
-                           .expand(-1, *size)]).gather(0, top.indices)
+        ids = torch.arange(start, start + len(w), dtype=torch.int32)[:, None, None]
+        index = torch.cat([index, ids.expand(-1, *size)]).gather(0, top.indices)
         values = top.values
     margin = (values[0] - values[1].clamp_min(0)).clamp_min(0)
     return index[0].cpu().numpy().astype(np.int64), margin.cpu().numpy().astype(np.float32)
@@ -122,7 +123,7 @@ def from_textons(textons: Textons, masks: torch.Tensor, size: tuple[int, int],
     keep = torch.nonzero(textons.delta[0] > 0.5).flatten()  # (K',)
     H, W = size
     if source == "masks":
-        labels, margin = _mask_labels(masks[keep], (H, W)) if len(keep) else _empty(H, W)
+        labels, margin = mask_argmax(masks[keep], (H, W)) if len(keep) else _empty(H, W)
     else:
         from neuraltex.splatting import opacity_maps
 

@@ -170,14 +170,14 @@ def test_mask_labels_in_chunks_equal_the_whole_argmax():
     normalized at once, margins included (ties, all-zero pixels, aside)."""
     import torch.nn.functional as F
 
-    from neuraltex.segments import _mask_labels
+    from neuraltex.segments import mask_argmax
 
     torch.manual_seed(0)
     for k in (1, 2, 5, 150):
         masks = torch.rand(k, 9, 7).softmax(0) * (torch.rand(1, 9, 7) > 0.2)
         up = F.interpolate(masks[None], size=(20, 15), mode="bilinear", align_corners=False)[0]
         labels, margin = from_weights(up / up.sum(0, keepdim=True).clamp_min(1e-8))
-        got, got_margin = _mask_labels(masks, (20, 15), chunk=4)
+        got, got_margin = mask_argmax(masks, (20, 15), chunk=4)
         assert np.allclose(got_margin, margin, atol=1e-6)
         assert np.array_equal(got[margin > 0], labels[margin > 0])
 

@@ -217,3 +217,21 @@ def test_tiled_pictures_script_draws_both_rows(tmp_path):
                                 "--levels", "1", "--iterations", "1"]) == 0
     pic = Image.open(out)
     assert pic.height == 2 * (96 + 16 + 4) and pic.width >= 3 * 96
+
+
+def test_at_most_keeps_the_largest_segments_and_fills_the_rest(model, monkeypatch):
+    """Textons are capped (noise gives thousands of segments): the largest kept, the pixels of
+    the others to the nearest kept segment, "no segment" left alone."""
+    import neuraltex.tiled_encode as te
+
+    labels = np.array([[1, 1, 2, 0], [1, 1, 3, 3], [4, 4, 3, 3]])
+    capped = te._at_most(labels, 2)
+    assert set(np.unique(capped)) == {0, 1, 2} and capped[0, 3] == 0
+    assert capped[2, 0] == capped[0, 0]  # segment 4 went to its neighbour 1
+    assert np.array_equal(te._at_most(labels, 4), labels)
+    x = torch.zeros(1, 3, SIDE, 2 * SIDE)
+    x[..., 4:SIDE - 8:16, :] = 0.8  # stripes: one segment each
+    monkeypatch.setattr(te, "MOST", 3)
+    with torch.no_grad():
+        enc = te.encode_tiled(model, x)
+    assert _found(enc)[0] == 3 and enc.masks.shape[1] <= 4
