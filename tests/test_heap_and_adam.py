@@ -17,6 +17,7 @@ from neuraltex.nn_utils import adam, load_adam_state
 _FAULTS = """
 import resource, sys, torch
 from neuraltex.heap import keep_freed_memory
+torch.set_num_threads(1)  # with two, the count of the kept run swung 3,600-7,400
 if sys.argv[1] == "1":
     assert keep_freed_memory()
 S = torch.rand(8, 100, 1024)  # 3.3 MB, the mask loss's (B, n, P)
@@ -42,7 +43,7 @@ def test_freed_large_tensors_are_reused_without_page_faults():
 
     default, kept = faults("0"), faults("1")
     assert default > 8 * 2 * 800, default  # at least two fresh tensors a call
-    assert kept < default / 4, (kept, default)
+    assert kept < 8 * 800, (kept, default)  # less than one a call (measured: 3,600-4,100)
 
 
 def test_training_optimizers_are_fused_and_stay_fused_after_an_unfused_resume(tmp_path):
