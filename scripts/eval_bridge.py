@@ -49,9 +49,10 @@ VECTOR_COLS = ("psnr", "ssim", "elements", "gt", "miou", "kib", "t_vec")
 SYNTH_COLS = ("ex_swd", "swd", "out_elements", "energy", "lattice", "t_syn")
 
 
-def inputs(limit: int, real: int, size: int, only: list[str] | None = None):
-    """[(name, image (H, W, 3) float64 in [0, 1], true masks (H, W) or None)]; ``only``: these
-    real textures instead of the first ``real``."""
+def inputs(limit: int, real: int, size: int, only: list[str] | None = None,
+           folder: Path = REAL):
+    """[(name, image (H, W, 3) float64 in [0, 1], true masks (H, W) or None)]; the real
+    textures from ``folder``; ``only``: these instead of the first ``real``."""
     from PIL import Image
 
     from neuraltex.data.splits import benchmark_split
@@ -60,10 +61,10 @@ def inputs(limit: int, real: int, size: int, only: list[str] | None = None):
     for item in benchmark_split()[:limit]:
         s = generate_at(item, size)
         out.append((f"{item.family}-{item.index}", s.image.astype(np.float64), s.mask))
-    paths = [REAL / f"{n}.png" for n in only] if only else sorted(REAL.glob("*.png"))[:real]
+    paths = [folder / f"{n}.png" for n in only] if only else sorted(folder.glob("*.png"))[:real]
     for path in paths:
         if not path.exists():
-            raise SystemExit(f"no real texture {path.stem} in {REAL}")
+            raise SystemExit(f"no real texture {path.stem} in {folder}")
         pic = Image.open(path).convert("RGB").resize((size, size), Image.LANCZOS)
         out.append((path.stem, np.asarray(pic, np.float64) / 255, None))
     return out
@@ -197,6 +198,9 @@ def main() -> None:
                     help="what vectorizes (default: all)")
     ap.add_argument("--limit", type=int, default=8, help="procedural benchmark images")
     ap.add_argument("--real", type=int, default=25, help="real textures (data/real_textures)")
+    ap.add_argument("--textures", type=Path, default=REAL,
+                    help="folder of real textures (default data/real_textures; the held-out "
+                    "set: data/real_textures_heldout)")
     ap.add_argument("--only", nargs="+", metavar="NAME",
                     help="these real textures of data/real_textures instead of the first --real")
     ap.add_argument("--size", type=int, default=128, help="input side in px (default 128)")
@@ -230,7 +234,7 @@ def main() -> None:
     params = VectorizeParams(gradient=not args.no_gradient)
     cols = VECTOR_COLS + (SYNTH_COLS if args.synth else ())
     rows, results = [], []
-    data = inputs(args.limit, args.real, args.size, args.only)
+    data = inputs(args.limit, args.real, args.size, args.only, args.textures)
     bar = tqdm([(d, p) for d in data for p in args.pipelines], file=sys.stderr, unit="run")
     for (name, image, gt), pipe in bar:
         bar.set_description(f"{name} / {pipe}")
