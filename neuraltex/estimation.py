@@ -81,13 +81,19 @@ def estimate_textons(
     f = _MaskPool.apply(appearance.reshape(B, C, -1), S).transpose(1, 2) / mass.unsqueeze(-1)
     f = F.normalize(f, dim=-1, eps=1e-12)           # eq. 4.6
 
-    p = (S * S).sum(dim=-1) / mass  # eq. 4.5: mask average weighted by itself
+    p = existence_probability(S)
     delta = _existence(p, existence, temperature, generator)
 
     order = painter_order(cov)
     canvas = (window[2] - window[0], window[3] - window[1])
     return Textons(mu=mean + centre, cov=cov, v=v, f=f, p=p, delta=delta, order=order,
                    canvas=canvas)
+
+
+def existence_probability(S: Tensor) -> Tensor:
+    """Eq. 4.5, each mask's average weighted by itself: flattened masks S (B, n, P) -> p
+    (B, n)."""
+    return (S * S).sum(dim=-1) / S.sum(dim=-1).clamp_min(_MIN_MASS)
 
 
 def painter_order(cov: torch.Tensor) -> torch.Tensor:

@@ -72,8 +72,6 @@ def mask_argmax(masks: torch.Tensor, size: tuple[int, int],
         return F.interpolate(m[None].float(), size=size, mode="bilinear",
                              align_corners=False)[0]
 
-    if len(masks) == 1:
-        return from_weights(up(masks) / up(masks).clamp_min(1e-8))
     chunk = chunk or max(1, 2**24 // (size[0] * size[1]))
     total = up(masks.sum(0, keepdim=True))[0].clamp_min(1e-8)  # interpolation is linear
     values = torch.full((2, *size), -1.0)

@@ -19,6 +19,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from neuraltex.tiled_segments import consecutive
+
 EDGE = 0.03  # median Sobel magnitude (grey in [0, 1]) along the seam, below which it is no edge
 SHARE = 0.5  # share of a fine segment's pixels that its coarse segment must hold
 
@@ -67,6 +69,4 @@ def merge_split(fine: np.ndarray, coarse: np.ndarray, grey: np.ndarray,
     join = (home[lo] >= 0) & (home[lo] == home[hi]) & (median < edge)
     graph = coo_matrix((np.ones(int(join.sum())), (lo[join], hi[join])), shape=(n, n))
     _, root = connected_components(graph, directed=False)
-    joined = np.where(fine == 0, -1, root[fine])  # segment 0 is never in a pair
-    _, dense = np.unique(joined, return_inverse=True)  # consecutive, -1 -> 0 if present
-    return dense.reshape(fine.shape) + (0 if (joined < 0).any() else 1)
+    return consecutive(np.where(fine == 0, 0, root[fine] + 1))  # 0 is never in a pair

@@ -33,11 +33,11 @@ import torch.nn.functional as F
 from torch import Tensor
 
 from neuraltex.coords import default_window
-from neuraltex.estimation import estimate_textons, painter_order
+from neuraltex.estimation import estimate_textons, existence_probability, painter_order
 from neuraltex.model import Encoded, TextonAutoencoder
 from neuraltex.segmenters import soft_masks
 from neuraltex.split_merge import merge_split
-from neuraltex.tiled_segments import DENSE, TILING, merge_tiles, tile_origins
+from neuraltex.tiled_segments import DENSE, TILING, consecutive, merge_tiles, tile_origins
 
 ZOOM = 2  # tiles see the picture at twice encode()'s scale (validation split: MODEL.md)
 MOST = 1024  # segments at most (the 25 real textures give 80-370; noise at 8:1 gave 2,587)
@@ -132,7 +132,7 @@ def _tile_labels(model: TextonAutoencoder, picture: Tensor, est: int, step: int)
         tiles = torch.cat([picture[..., ys[i] * step:ys[i] * step + side,
                                    xs[j] * step:xs[j] * step + side] for i, j in chunk])
         S = model.segment(tiles)  # (T, n, est, est)
-        p = (S * S).flatten(2).sum(-1) / S.flatten(2).sum(-1).clamp_min(1e-8)  # eq. 4.5
+        p = existence_probability(S.flatten(2))  # (T, n), eq. 4.5
         best = S.argmax(1)  # (T, est, est)
         effective = torch.gather(p > 0.5, 1, best.flatten(1)).view_as(best)
         labels = torch.where(effective, best + 1, torch.zeros_like(best)).cpu().numpy()
@@ -154,6 +154,4 @@ def _at_most(labels: np.ndarray, most: int) -> np.ndarray:
     keep[np.argsort(-area, kind="stable")[:most]] = True
     kept = keep[labels]  # (h, w) in a kept segment ("no segment" pixels stay as they are)
     _, (iy, ix) = distance_transform_edt(~kept, return_indices=True)
-    labels = np.where(kept | (labels == 0), labels, labels[iy, ix])
-    _, dense = np.unique(labels, return_inverse=True)
-    return dense.reshape(labels.shape) + (0 if (labels == 0).any() else 1)
+    return consecutive(np.where(kept | (labels == 0), labels, labels[iy, ix]))

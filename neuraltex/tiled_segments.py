@@ -89,9 +89,14 @@ def merge_tiles(parts: dict[tuple[int, int], np.ndarray], shape: tuple[int, int]
 
         _, (iy, ix) = distance_transform_edt(owner == 0, return_indices=True)
         owner = np.where(unclaimed, owner[iy, ix], owner)
-    labels = _same_across_tiles(claims, ys, xs, next_id)[np.where(owner > 0, owner, own)]
-    _, dense = np.unique(labels, return_inverse=True)  # consecutive, 0 stays 0 if present
-    return dense.reshape(H, W) + (0 if (labels == 0).any() else 1)
+    return consecutive(_same_across_tiles(claims, ys, xs, next_id)[np.where(owner > 0, owner,
+                                                                          own)])
+
+
+def consecutive(labels: np.ndarray) -> np.ndarray:
+    """Labels (any shape, ints >= 0; 0 = no segment) renumbered 1..K in order, 0 kept."""
+    _, dense = np.unique(labels, return_inverse=True)
+    return dense.reshape(labels.shape) + (0 if (labels == 0).any() else 1)
 
 
 def _same_across_tiles(claims: dict, ys: list[int], xs: list[int], count: int,

@@ -41,6 +41,7 @@ from cvt.metrics import patch_swd  # noqa: E402
 from cvt.raster import element_mask, render_svg  # noqa: E402
 from neuraltex.fileio import write_text_atomic  # noqa: E402
 from neuraltex.segments import segment_image  # noqa: E402
+from neuraltex.tiled_segments import TILING  # noqa: E402
 from neuraltex.vectorize import VectorizeParams, to_svg, vectorize  # noqa: E402
 
 REAL = ROOT / "data" / "real_textures"
@@ -207,7 +208,7 @@ def main() -> None:
     ap.add_argument("--source", choices=("masks", "splat"), default="masks",
                     help="model pipeline: element shapes from the masks (default) or from the "
                     "splatted Gaussians")
-    ap.add_argument("--tile", choices=("auto", "on", "off"), default="auto",
+    ap.add_argument("--tile", choices=TILING, default="auto",
                     help="model pipeline: encode the picture whole (off), from tiles (on), or "
                     "from tiles where it is dense (auto, as the commands; neuraltex."
                     "tiled_encode)")

@@ -67,12 +67,13 @@ def main() -> None:
     from neuraltex.baselines import get_segmenter
     from neuraltex.cli import common
     from neuraltex.imageio import load_image
+    from neuraltex.tiled_segments import TILING
 
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     add_texture_options(p)
     p.add_argument("--checkpoint", type=Path, help="another E_s export to count beside the "
                    "shipped model's")
-    p.add_argument("--tile", choices=("auto", "on", "off"), default="auto",
+    p.add_argument("--tile", choices=TILING, default="auto",
                    help="also count E_s's textons from tiles: as the commands encode by default "
                    "(auto: tiles for dense pictures), always (on), or not (off); "
                    "neuraltex/tiled_encode.py")
