@@ -7,11 +7,13 @@ import torch
 
 from conftest import BATCHES, SIZES
 from neuraltex.segmentation import (
+    SMALL_KEYS,
     SegmentationConfig,
     SegmentationNet,
     masked_attention,
     sine_position_encoding,
 )
+from neuraltex.small_attention import small_attention
 
 pytestmark = pytest.mark.usefixtures("one_thread", "seeded")
 
@@ -53,12 +55,14 @@ def test_masked_attention_gradcheck_float64():
 
 
 @pytest.mark.parametrize("per_head", [False, True])
-def test_fused_attention_without_weights_equals_the_explicit_one(per_head):
-    """need_weights=False (training: torch's fused kernel) gives the explicit softmax's
-    output and gradients, with blocked keys, in float64."""
-    q, k, v = (torch.randn(2, 4, 7 if i == 0 else 9, 8, dtype=torch.float64,
+@pytest.mark.parametrize("keys", [9, SMALL_KEYS + 1])  # small_attention, torch's fused kernel
+def test_attention_without_weights_equals_the_explicit_one(per_head, keys):
+    """need_weights=False (training: small_attention's closed-form backward for few keys,
+    else torch's fused kernel) gives the explicit softmax's output and gradients, with
+    blocked keys, in float64."""
+    q, k, v = (torch.randn(2, 4, 7 if i == 0 else keys, 8, dtype=torch.float64,
                            requires_grad=True) for i in range(3))
-    blocked = torch.rand(2, 4, 7, 9) < 0.6 if per_head else torch.rand(2, 7, 9) < 0.6
+    blocked = torch.rand(2, 4, 7, keys) < 0.6 if per_head else torch.rand(2, 7, keys) < 0.6
     blocked[..., 0] = False  # every query has a key
     fast, none = masked_attention(q, k, v, blocked, need_weights=False)
     ref, w = masked_attention(q, k, v, blocked)
@@ -69,6 +73,29 @@ def test_fused_attention_without_weights_equals_the_explicit_one(per_head):
         strict=True))
     unmasked, _ = masked_attention(q, k, v, torch.zeros_like(blocked), need_weights=False)
     assert not torch.allclose(unmasked, ref, atol=1e-3)  # the mask is applied
+
+
+def test_small_attention_gradcheck_on_strided_heads():
+    """Closed-form backward against finite differences, float64, with q/k/v laid out as the
+    Attention module splits them (heads as a transposed view) and a mask shared by heads."""
+    q, k, v = (torch.randn(2, n, 3, 4, dtype=torch.float64).transpose(1, 2).requires_grad_()
+               for n in (5, 6, 6))
+    blocked = torch.rand(2, 1, 5, 6) < 0.5
+    blocked[..., 2] = False
+    assert torch.autograd.gradcheck(lambda a, b, c: small_attention(a, b, c, blocked),
+                                    (q, k, v))
+    out = small_attention(q, k, v, blocked)
+    w = torch.softmax((q @ k.transpose(-2, -1) / 2).masked_fill(blocked, float("-inf")), -1)
+    assert torch.allclose(out, w @ v, atol=1e-12)
+
+
+def test_small_attention_under_bfloat16_autocast_gives_float32_gradients():
+    q, k, v = (torch.randn(2, 4, n, 8, requires_grad=True) for n in (10, 16, 16))
+    with torch.autocast("cpu", dtype=torch.bfloat16):
+        out = small_attention(q, k, v, torch.rand(2, 1, 10, 16) < 0.3)
+    out.float().sum().backward()
+    assert out.dtype == torch.bfloat16
+    assert all(t.grad.dtype == torch.float32 and torch.isfinite(t.grad).all() for t in (q, k, v))
 
 
 def test_segmenter_logits_equal_with_and_without_attention_weights(tiny):
