@@ -216,12 +216,47 @@ def test_batchnorm_recalibration_changes_only_the_export(tmp_path):
 
 def test_long_segmenter_preset_runs_and_resumes(tmp_path):
     """The long-run preset (MODEL.md, issue 16 item 5) at 2 steps: point-sampled mask loss,
-    data worker, stop and resume from run_dir/last.pt."""
+    data worker, stop and resume from run_dir/last.pt. It compiles E_s (inductor: a minute
+    or more here), which test_compiled_segmenter_trains_as_the_eager_one covers: not here."""
+    assert list(_cfg(tmp_path, "experiment=long_segmenter").trainer.compile) == ["segmenter"]
     over = ["experiment=long_segmenter", "model.image_size=64", "model.estimation_size=32",
-            "trainer.batch_size=2", "trainer.export=null", "loss.mask_points=256"]
+            "trainer.batch_size=2", "trainer.export=null", "loss.mask_points=256",
+            "trainer.compile=[]"]
     run(_cfg(tmp_path, *over, "trainer.max_steps=1"))
     logs = run(_cfg(tmp_path, *over, "trainer.max_steps=2"))
     assert load_training_checkpoint(tmp_path / "last.pt")["step"] == 2 and logs["mask"] > 0
+
+
+@pytest.mark.slow
+def test_compiled_segmenter_trains_as_the_eager_one(tmp_path, monkeypatch):
+    """trainer.compile=[segmenter]: E_s is compiled in place (the export has the eager
+    model's keys) and its steps give the eager steps' losses. Traced by dynamo and AOT
+    autograd as with inductor, run by their eager backend (inductor's C++ build takes a
+    minute or more here; scripts/bench_model.py times it)."""
+    from train.setup import build
+
+    compile_ = torch.nn.Module.compile
+    monkeypatch.setattr(torch.nn.Module, "compile",
+                        lambda self, **kw: compile_(self, backend="aot_eager", **kw))
+    over = ["trainer.max_steps=2", "loss.mask_supervision=gt", "loss.segmenter_warmup=100"]
+    parts = build(_cfg(tmp_path / "c", *over, "trainer.compile=[segmenter]"),
+                  torch.device("cpu"))
+    assert parts.model.segmenter._compiled_call_impl is not None
+    assert parts.model.encoder._compiled_call_impl is None
+    eager = run(_cfg(tmp_path / "e", *over))
+    compiled = run(_cfg(tmp_path / "c", *over, "trainer.compile=[segmenter]"))
+    assert compiled["mask"] == pytest.approx(eager["mask"], rel=1e-5)
+    assert (load_model(tmp_path / "c" / "model.safetensors").state_dict().keys()
+            == load_model(tmp_path / "e" / "model.safetensors").state_dict().keys())
+
+
+@pytest.mark.parametrize("key", ["compile", "freeze"])
+def test_an_unknown_model_part_is_a_one_line_error(tmp_path, key):
+    from neuraltex.errors import InputError
+    from train.setup import build
+
+    with pytest.raises(InputError, match=f"trainer.{key}: unknown model part 'critic'"):
+        build(_cfg(tmp_path, f"trainer.{key}=[critic]"), torch.device("cpu"))
 
 
 def test_fine_mask_stride_trains_and_exports(tmp_path):

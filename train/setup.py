@@ -3,6 +3,8 @@ other models (``trainer.init_from``, ``trainer.init_parts``)."""
 
 from __future__ import annotations
 
+import logging
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -67,13 +69,29 @@ def build(cfg: DictConfig, device: torch.device, world: int = 1) -> Parts:
         gen.to(memory_format=torch.channels_last)  # the model and LPIPS
         critics.to(memory_format=torch.channels_last)
     for name in T.freeze or ():  # e.g. [segmenter]: fine-tune the rest around a fixed E_s
-        getattr(model, name).requires_grad_(False)
+        model_part(model, name, "trainer.freeze").requires_grad_(False)
+    for name in T.get("compile") or ():  # e.g. [segmenter]: inductor's fused kernels
+        model_part(model, name, "trainer.compile").compile()  # in place: same state_dict
+    if T.get("compile"):  # the constants E_s caches with lru_cache are traced: pure functions;
+        warnings.filterwarnings("ignore", message="Dynamo detected a call to a `functools")
+        logging.getLogger("torch.utils.cpp_extension").setLevel(logging.ERROR)  # "no CUDA"
     trainable = [p for p in model.parameters() if p.requires_grad]
     opt_g = adam(trainable, lr=T.lr, betas=tuple(T.betas))
     opt_d = adam(critics.parameters(), lr=T.d_lr, betas=tuple(T.betas))
     wrap = _ddp if world > 1 else (lambda m: m)
     return Parts(model, critics, gen, wrap(gen), wrap(critics), opt_g, opt_d, loss, device,
                  amp=use_amp(T.amp, device))
+
+
+PARTS = ("encoder", "segmenter", "generator")  # what trainer.freeze / compile may name
+
+
+def model_part(model: TextonAutoencoder, name: str, key: str) -> torch.nn.Module:
+    """The model part ``name`` (E_FC, E_s or G) of a config list ``key``; InputError for
+    another name."""
+    if name not in PARTS:
+        raise InputError(f"{key}: unknown model part {name!r} (one of {', '.join(PARTS)})")
+    return getattr(model, name)
 
 
 def use_amp(setting, device: torch.device) -> bool:
