@@ -250,6 +250,18 @@ def test_compiled_segmenter_trains_as_the_eager_one(tmp_path, monkeypatch):
             == load_model(tmp_path / "e" / "model.safetensors").state_dict().keys())
 
 
+def test_compile_without_a_cxx_compiler_runs_uncompiled_with_one_warning(tmp_path,
+                                                                        monkeypatch):
+    import train.setup as setup
+
+    monkeypatch.setattr(setup.shutil, "which", lambda name: None)
+    monkeypatch.delenv("CXX", raising=False)
+    with pytest.warns(UserWarning, match="no C.. compiler") as caught:
+        parts = setup.build(_cfg(tmp_path, "trainer.compile=[segmenter]"), torch.device("cpu"))
+    assert parts.model.segmenter._compiled_call_impl is None
+    assert sum("compiler" in str(w.message) for w in caught) == 1
+
+
 @pytest.mark.parametrize("key", ["compile", "freeze"])
 def test_an_unknown_model_part_is_a_one_line_error(tmp_path, key):
     from neuraltex.errors import InputError

@@ -4,6 +4,8 @@ other models (``trainer.init_from``, ``trainer.init_parts``)."""
 from __future__ import annotations
 
 import logging
+import os
+import shutil
 import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -70,9 +72,14 @@ def build(cfg: DictConfig, device: torch.device, world: int = 1) -> Parts:
         critics.to(memory_format=torch.channels_last)
     for name in T.freeze or ():  # e.g. [segmenter]: fine-tune the rest around a fixed E_s
         model_part(model, name, "trainer.freeze").requires_grad_(False)
-    for name in T.get("compile") or ():  # e.g. [segmenter]: inductor's fused kernels
-        model_part(model, name, "trainer.compile").compile()  # in place: same state_dict
-    if T.get("compile"):  # the constants E_s caches with lru_cache are traced: pure functions;
+    compiled = [model_part(model, name, "trainer.compile") for name in T.get("compile") or ()]
+    if compiled and device.type == "cpu" and not cxx_compiler():
+        warnings.warn("trainer.compile: no C++ compiler (g++, clang++; $CXX) for torch.compile "
+                      "on the CPU; the model runs uncompiled", stacklevel=2)
+        compiled = []
+    for part in compiled:  # e.g. E_s: inductor's fused kernels, in place (same state_dict)
+        part.compile()
+    if compiled:  # the constants E_s caches with lru_cache are traced: pure functions;
         warnings.filterwarnings("ignore", message="Dynamo detected a call to a `functools")
         logging.getLogger("torch.utils.cpp_extension").setLevel(logging.ERROR)  # "no CUDA"
     trainable = [p for p in model.parameters() if p.requires_grad]
@@ -84,6 +91,13 @@ def build(cfg: DictConfig, device: torch.device, world: int = 1) -> Parts:
 
 
 PARTS = ("encoder", "segmenter", "generator")  # what trainer.freeze / compile may name
+
+
+def cxx_compiler() -> str | None:
+    """The C++ compiler inductor would build CPU kernels with ($CXX, else g++, clang++ or
+    c++ on PATH), or None."""
+    names = [os.environ["CXX"]] if os.environ.get("CXX") else ["g++", "clang++", "c++"]
+    return next((path for name in names if (path := shutil.which(name))), None)
 
 
 def model_part(model: TextonAutoencoder, name: str, key: str) -> torch.nn.Module:
