@@ -164,14 +164,14 @@ def masked_attention(
     Shape: q (B, h, n, d), k/v (B, h, L, d), blocked (B, n, L) or (B, h, n, L)
     -> out (B, h, n, d), weights (B, h, n, L). Blocked entries get exactly zero weight; every
     row must have an entry that is not blocked. Without ``need_weights`` the weights are None
-    and the output is computed without them: by :func:`small_attention` (closed-form
-    backward) for up to :data:`SMALL_KEYS` keys (1.6-3x faster forward + backward than
-    torch's fused kernel there, slower on longer sequences), else by the fused kernel
-    (1.3-1.9x faster than the explicit softmax).
+    and the output is computed without them: on the CPU by :func:`small_attention`
+    (closed-form backward) for up to :data:`SMALL_KEYS` keys (1.6-3x faster forward +
+    backward than torch's fused kernel there, slower on longer sequences; never timed on a
+    GPU), else by the fused kernel (1.3-1.9x faster than the explicit softmax).
     """
     if blocked is not None and blocked.dim() == 3:
         blocked = blocked[:, None]  # (B, 1, n, L)
-    if not need_weights and k.shape[-2] <= SMALL_KEYS:
+    if not need_weights and k.shape[-2] <= SMALL_KEYS and q.device.type == "cpu":
         return small_attention(q, k, v, blocked), None
     if not need_weights:
         mask = None if blocked is None else ~blocked  # SDPA's boolean mask: True = attend
