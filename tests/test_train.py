@@ -265,10 +265,13 @@ def test_compile_without_a_cxx_compiler_runs_uncompiled_with_one_warning(tmp_pat
 @pytest.mark.parametrize("key", ["compile", "freeze"])
 def test_an_unknown_model_part_is_a_one_line_error(tmp_path, key):
     from neuraltex.errors import InputError
-    from train.setup import build
+    from train.setup import build, check_inputs
 
-    with pytest.raises(InputError, match=f"trainer.{key}: unknown model part 'critic'"):
-        build(_cfg(tmp_path, f"trainer.{key}=[critic]"), torch.device("cpu"))
+    cfg = _cfg(tmp_path, f"trainer.{key}=[critic]")
+    for check in (lambda: check_inputs(cfg.trainer, tmp_path),  # before anything is built
+                  lambda: build(cfg, torch.device("cpu"))):
+        with pytest.raises(InputError, match=f"trainer.{key}: unknown model part 'critic'"):
+            check()
 
 
 def test_fine_mask_stride_trains_and_exports(tmp_path):

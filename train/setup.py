@@ -100,11 +100,15 @@ def cxx_compiler() -> str | None:
     return next((path for name in names if (path := shutil.which(name))), None)
 
 
-def model_part(model: TextonAutoencoder, name: str, key: str) -> torch.nn.Module:
-    """The model part ``name`` (E_FC, E_s or G) of a config list ``key``; InputError for
-    another name."""
+def check_part(name: str, key: str) -> None:
+    """InputError unless ``name``, from the config list ``key``, is a model part."""
     if name not in PARTS:
         raise InputError(f"{key}: unknown model part {name!r} (one of {', '.join(PARTS)})")
+
+
+def model_part(model: TextonAutoencoder, name: str, key: str) -> torch.nn.Module:
+    """The model part ``name`` (E_FC, E_s or G) of a config list ``key``."""
+    check_part(name, key)
     return getattr(model, name)
 
 
@@ -139,12 +143,16 @@ def resume_file(T: DictConfig, run_dir: Path) -> Path | None:
 def check_inputs(T: DictConfig, run_dir: Path) -> None:
     """InputError naming the missing file, and the stage that makes it, when a file the run
     starts from (``trainer.init_from``, ``trainer.init_parts``, ``trainer.resume``) is absent,
-    before anything is built. A run that resumes from its own ``run_dir/last.pt``
+    or naming a ``trainer.freeze`` / ``trainer.compile`` entry that is no model part, before
+    anything is built. A run that resumes from its own ``run_dir/last.pt``
     (``trainer.resume=auto``) needs none of the files it started from."""
     paths = [("trainer.init_from", T.init_from), *((f"trainer.init_parts.{k}", v)
                                                     for k, v in (T.init_parts or {}).items())]
     if T.resume == "auto" and resume_file(T, run_dir):
         paths = []
+    for key in ("freeze", "compile"):
+        for name in T.get(key) or ():
+            check_part(name, f"trainer.{key}")
     if T.resume and T.resume != "auto":
         paths.append(("trainer.resume", T.resume))
     for key, path in paths:
