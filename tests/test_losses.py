@@ -104,3 +104,48 @@ def test_consistency_mean_is_the_sum_over_matched_pairs():
     assert m.item() == pytest.approx(s.item() / 6, rel=1e-5)
     with pytest.raises(ValueError):
         consistency_loss(moved, t, masks, masks, reduce="max")
+
+
+@pytest.mark.parametrize("reduce", ["sum", "mean"])
+def test_consistency_gradient_is_that_of_the_matched_entries_of_the_cost_matrix(reduce):
+    """The loss recomputes only the matched pairs: its value and gradients (textons and masks
+    of both sides) equal those of the Hungarian-matched entries of the full eq. 4.21 matrix,
+    with rows left out by ``valid``; ``pair_cost`` is the matrix's diagonal."""
+    from scipy.optimize import linear_sum_assignment
+
+    from train.consistency import pair_cost
+
+    g = torch.Generator().manual_seed(4)
+    a0 = make_textons(B=3, K=7, C=3, seed=5, dtype=torch.float64)
+    b0 = make_textons(B=3, K=7, C=3, seed=6, dtype=torch.float64)
+    ma0 = torch.rand(3, 7, 5, 5, generator=g, dtype=torch.float64).softmax(1)
+    mb0 = torch.rand(3, 7, 5, 5, generator=g, dtype=torch.float64).softmax(1)
+    valid = torch.rand(3, 7, generator=g) > 0.3
+    valid[1] = False  # a set with no valid texton adds nothing
+    valid[2, :2] = True
+
+    def leaves():
+        fields = [x.clone().requires_grad_(True) for t in (a0, b0)
+                  for x in (t.mu, t.cov, t.v, t.f, t.p)] + [ma0.clone().requires_grad_(True),
+                                                             mb0.clone().requires_grad_(True)]
+        a = type(a0)(*fields[:5], delta=a0.delta, order=a0.order)
+        b = type(b0)(*fields[5:10], delta=b0.delta, order=b0.order)
+        return fields, a, b, fields[10], fields[11]
+
+    fields, a, b, ma, mb = leaves()
+    loss = consistency_loss(a, b, ma, mb, valid=valid, reduce=reduce)
+    got = torch.autograd.grad(loss, fields)
+    fields, a, b, ma, mb = leaves()
+    cost = matching_cost(a, b, ma, mb)
+    ref = cost.new_zeros(())
+    for i in range(3):
+        rows = torch.nonzero(valid[i]).squeeze(1)
+        if len(rows):
+            r, c = linear_sum_assignment(cost[i, rows].detach().numpy())
+            matched = cost[i, rows[r], c]
+            ref = ref + (matched.sum() if reduce == "sum" else matched.mean())
+    ref = ref / 3
+    assert loss.item() == pytest.approx(ref.item(), rel=1e-12)
+    for x, y in zip(got, torch.autograd.grad(ref, fields), strict=True):
+        assert torch.allclose(x, y, atol=1e-12)
+    assert torch.allclose(pair_cost(a, b, ma, mb), cost.diagonal(dim1=1, dim2=2), atol=1e-12)

@@ -42,18 +42,41 @@ def matching_cost(a: Textons, b: Textons, masks_a: Tensor, masks_b: Tensor,
 
     masks_* (B, n, H, W) on the same pixel grid -> (B, n_a, n_b).
     """
-    lam = weights
-    w = a.p.unsqueeze(2) * b.p.unsqueeze(1)  # w_ij = p_i p_j
-    beta = torch.minimum(border_weight(a.mu, a.canvas, lam.border_margin).unsqueeze(2),
-                         border_weight(b.mu, b.canvas, lam.border_margin).unsqueeze(1))
-    geo = (lam.mu * torch.cdist(a.mu, b.mu)
-           + lam.cov * torch.cdist(a.cov.flatten(2), b.cov.flatten(2))
-           + lam.v * torch.cdist(a.v, b.v)
-           + lam.f * torch.cdist(a.f, b.f))
-    dp = (a.p.unsqueeze(2) - b.p.unsqueeze(1)).abs()
-    Sa, Sb = masks_a.flatten(2), masks_b.flatten(2)
+    return _cost(a, b, masks_a.flatten(2), masks_b.flatten(2), weights, outer=True)
+
+
+def pair_cost(a: Textons, b: Textons, masks_a: Tensor, masks_b: Tensor,
+              weights: ConsistencyWeights = ConsistencyWeights()) -> Tensor:
+    """C_ii of eq. 4.21: texton i of ``a`` against texton i of ``b`` (two aligned sets).
+
+    masks_* (B, n, H, W) -> (B, n); equals the diagonal of :func:`matching_cost`.
+    """
+    return _cost(a, b, masks_a.flatten(2), masks_b.flatten(2), weights, outer=False)
+
+
+def _cost(a: Textons, b: Textons, Sa: Tensor, Sb: Tensor, lam: ConsistencyWeights,
+          outer: bool) -> Tensor:
+    """eq. 4.21 on every pair i, j (``outer``: (B, n_a, n_b)) or on aligned pairs (B, n).
+    Sa, Sb: the flattened masks (B, n, P)."""
+    if outer:
+        ea, eb, dist = (lambda t: t.unsqueeze(2)), (lambda t: t.unsqueeze(1)), torch.cdist
+    else:
+        def ea(t: Tensor) -> Tensor:
+            return t
+        eb = ea
+
+        def dist(x: Tensor, y: Tensor) -> Tensor:
+            return torch.linalg.vector_norm(x - y, dim=-1)
+    w = ea(a.p) * eb(b.p)  # w_ij = p_i p_j
+    beta = torch.minimum(ea(border_weight(a.mu, a.canvas, lam.border_margin)),
+                         eb(border_weight(b.mu, b.canvas, lam.border_margin)))
+    geo = (lam.mu * dist(a.mu, b.mu)
+           + lam.cov * dist(a.cov.flatten(2), b.cov.flatten(2))
+           + lam.v * dist(a.v, b.v)
+           + lam.f * dist(a.f, b.f))
+    dp = (ea(a.p) - eb(b.p)).abs()
     # Normalized by pixel count so lambda_S does not depend on the resolution.
-    dS = torch.cdist(Sa, Sb) / Sa.shape[-1] ** 0.5
+    dS = dist(Sa, Sb) / Sa.shape[-1] ** 0.5
     return w * beta * geo + lam.p * dp + lam.masks * dS
 
 
@@ -67,17 +90,34 @@ def consistency_loss(transformed: Textons, encoded: Textons, masks_t: Tensor, ma
     others are left out of the matching (they have no counterpart in E(T(I))).
     ``reduce="sum"`` is eq. 4.22 (the matched costs summed); ``"mean"`` averages them, which
     keeps the loss's scale independent of the number of queries n.
+
+    The matching sees the whole (B, n, n) cost without autograd; the loss recomputes only the
+    n matched pairs with it (the same value and gradient, without the backward of n^2
+    mask distances).
     """
     if reduce not in ("sum", "mean"):
         raise ValueError(f"reduce must be 'sum' or 'mean', got {reduce!r}")
-    cost = matching_cost(transformed, encoded, masks_t, masks_e, weights)
-    total = cost.new_zeros(())
-    for b in range(cost.shape[0]):
-        rows = torch.arange(cost.shape[1]) if valid is None else torch.nonzero(valid[b]).squeeze(1)
-        if len(rows) == 0:
+    with torch.no_grad():
+        cost = matching_cost(transformed, encoded, masks_t, masks_e, weights).cpu().numpy()
+    B, n = cost.shape[:2]
+    rows, cols = torch.zeros(B, n, dtype=torch.long), torch.zeros(B, n, dtype=torch.long)
+    weight = torch.zeros(B, n, dtype=torch.float64)  # a pair: 1 (sum) or 1 / pairs (mean)
+    keep = [range(n)] * B if valid is None else [torch.nonzero(v).squeeze(1).tolist()
+                                                  for v in valid.cpu()]
+    for b in range(B):
+        if len(keep[b]) == 0:
             continue
-        sub = cost[b, rows.to(cost.device)]
-        r, c = linear_sum_assignment(sub.detach().cpu().numpy())
-        matched = sub[torch.as_tensor(r), torch.as_tensor(c)]
-        total = total + (matched.sum() if reduce == "sum" else matched.mean())
-    return total / cost.shape[0]
+        r, c = linear_sum_assignment(cost[b, keep[b]])
+        m = len(r)
+        rows[b, :m], cols[b, :m] = torch.as_tensor(keep[b])[r], torch.as_tensor(c)
+        weight[b, :m] = 1.0 if reduce == "sum" else 1.0 / m
+    dev = masks_t.device
+    rows, cols = rows.to(dev), cols.to(dev)
+    pairs = pair_cost(transformed.index(rows), encoded.index(cols),
+                      _gather(masks_t, rows), _gather(masks_e, cols), weights)
+    return (pairs * weight.to(pairs)).sum() / B
+
+
+def _gather(masks: Tensor, idx: Tensor) -> Tensor:
+    """masks (B, n, H, W), idx (B, m) -> (B, m, H, W)."""
+    return masks[torch.arange(masks.shape[0], device=masks.device).unsqueeze(1), idx]
