@@ -81,7 +81,7 @@ def estimate_textons(
     f = _MaskPool.apply(appearance.reshape(B, C, -1), S).transpose(1, 2) / mass.unsqueeze(-1)
     f = F.normalize(f, dim=-1, eps=1e-12)           # eq. 4.6
 
-    p = existence_probability(S)
+    p = existence_probability(S, mass)
     delta = _existence(p, existence, temperature, generator)
 
     order = painter_order(cov)
@@ -90,10 +90,13 @@ def estimate_textons(
                    canvas=canvas)
 
 
-def existence_probability(S: Tensor) -> Tensor:
+def existence_probability(S: Tensor, mass: Tensor | None = None) -> Tensor:
     """Eq. 4.5, each mask's average weighted by itself: flattened masks S (B, n, P) -> p
-    (B, n)."""
-    return (S * S).sum(dim=-1) / S.sum(dim=-1).clamp_min(_MIN_MASS)
+    (B, n); ``mass``: S's sums over P clamped at _MIN_MASS, where the caller has them.
+    sum S^2 as a squared norm: one pass over S, no (B, n, P) temporary."""
+    if mass is None:
+        mass = S.sum(dim=-1).clamp_min(_MIN_MASS)
+    return torch.linalg.vector_norm(S, dim=-1).square() / mass
 
 
 def painter_order(cov: torch.Tensor) -> torch.Tensor:
