@@ -7,6 +7,7 @@ import pytest
 import torch
 import torch.nn.functional as F
 
+from neuraltex import nn_utils
 from neuraltex.model import build_model, load_model
 from neuraltex.model_config import ModelConfig
 from neuraltex.nn_utils import (
@@ -89,6 +90,26 @@ def test_argsort_last_orders_like_torch_argsort():
     distinct = torch.randperm(8 * 4096, generator=g).reshape(8, 4096) / 4096
     for y in (distinct, distinct.double(), distinct.T):
         assert torch.equal(argsort_last(y), torch.argsort(y, dim=-1))
+
+
+@pytest.mark.parametrize("threads", [1, 2, 3])
+def test_sorts_split_over_threads_equal_one_sort(threads):
+    """Arrays above the split size sort their rows in several threads: the same values and
+    permutation as torch's, for 3-d, odd row counts, strided views and 1-d input."""
+    g = torch.Generator().manual_seed(2)
+    before = torch.get_num_threads()
+    torch.set_num_threads(threads)
+    try:
+        x = torch.randperm(7 * 5 * 8000, generator=g).reshape(7, 5, 8000).float()
+        assert x.numel() >= nn_utils._PARALLEL_SORT
+        for y in (x, x.transpose(0, 1), x.flatten()):
+            assert torch.equal(sort_last(y), torch.sort(y, dim=-1).values)
+            assert torch.equal(argsort_last(y), torch.argsort(y, dim=-1))
+        leaf = x.clone().requires_grad_(True)
+        sort_last(leaf)[..., :10].sum().backward()  # the 10 smallest of each row get 1
+        assert torch.equal(leaf.grad, (x.argsort(-1).argsort(-1) < 10).float())
+    finally:
+        torch.set_num_threads(before)
 
 
 def test_segmenter_out_size_equals_resizing_its_full_size_logits(tiny):
