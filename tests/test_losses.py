@@ -69,6 +69,23 @@ def test_sliced_wasserstein_ignores_layout_but_sees_colours():
     assert d_roll < 0.05 * d_dark
 
 
+def test_sliced_wasserstein_runs_in_float32_under_autocast():
+    """Under bfloat16 autocast the texture loss is the float32 one (bfloat16 projections
+    would tie), value and gradient."""
+    g = torch.Generator().manual_seed(3)
+    x = torch.rand(2, 3, 24, 24, generator=g, requires_grad=True)
+    y = torch.rand(2, 3, 24, 24, generator=g)
+    out = []
+    for amp in (False, True):
+        with torch.autocast("cpu", dtype=torch.bfloat16, enabled=amp):
+            loss = sliced_wasserstein_patches(x, y, patch=4,
+                                              generator=torch.Generator().manual_seed(1))
+        out.append((loss, torch.autograd.grad(loss, x)[0]))
+    (l32, g32), (lamp, gamp) = out
+    assert lamp.dtype == torch.float32 and lamp.item() == l32.item()
+    assert torch.equal(gamp, g32)
+
+
 def test_gan_losses_and_r1():
     zero = torch.zeros(4)
     assert d_logistic_loss(zero, zero).item() == pytest.approx(2 * math.log(2))
