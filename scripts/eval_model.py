@@ -145,8 +145,14 @@ def evaluate(model, limit: int | None, progress: bool = True) -> dict:
         row["shift_err_px"], row["shift_matched"] = shift_error(model, big, 8, 5)
         rows.append(row)
     keys = [k for k in rows[0] if k != "family"]
-    return {"images": len(rows), "mean": {k: float(np.nanmean([r[k] for r in rows]))
-                                          for k in keys}, "rows": rows}
+    return {"images": len(rows), "mean": {k: _mean([r[k] for r in rows]) for k in keys},
+            "rows": rows}
+
+
+def _mean(values: list[float]) -> float:
+    """The mean of the numbers that are not nan; nan (without numpy's warning) if none is."""
+    finite = [v for v in values if not np.isnan(v)]
+    return float(np.mean(finite)) if finite else float("nan")
 
 
 def _reshuffled(model, textons, seed: int, kinds=None):
