@@ -59,8 +59,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--device", choices=("cuda", "cpu"), default="cuda",
                    help="cpu: a dry run of the same command (tests)")
     p.add_argument("--workers", type=int, default=None,
-                   help="data processes rendering the procedural batches (default: the "
-                   "CPU cores less 2, at most 12)")
+                   help="data processes rendering the procedural batches (None: the CPU "
+                   "cores less 2, at most 12)")
     p.add_argument("--limit", type=int, default=100,
                    help="benchmark images scored for texton extraction")
     p.add_argument("--recon-limit", type=int, default=20,
