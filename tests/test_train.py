@@ -322,3 +322,16 @@ def test_a_run_from_the_data_cache_trains_on_the_same_items(tmp_path):
     assert OmegaConf.select(cfg, "data.cache") is None
     assert cached["recon"] == pytest.approx(rendered["recon"], rel=0.02)
     assert cached["recon"] != rendered["recon"]  # 8-bit images: not bit-identical
+
+
+@pytest.mark.skipif(torch.cuda.is_available(), reason="needs a machine without CUDA")
+def test_cuda_without_a_gpu_is_a_one_line_error(tmp_path):
+    """trainer.device=cuda where there is no GPU: the CLI's one-line error (exit 2), and the
+    launch leaves no run folder behind."""
+    run_dir = tmp_path / "run"
+    proc = subprocess.run([sys.executable, "-m", "train", f"run_dir={run_dir}", *FAST,
+                           "trainer.device=cuda"], capture_output=True, text=True, cwd=ROOT,
+                          timeout=300)
+    assert proc.returncode == 2
+    assert proc.stderr.strip().splitlines()[-1].startswith("train: error: trainer.device=cuda")
+    assert "Traceback" not in proc.stderr and not run_dir.exists()

@@ -21,6 +21,7 @@ from omegaconf import DictConfig, OmegaConf
 from tqdm import tqdm
 
 from neuraltex.checkpoint import save_training_checkpoint
+from neuraltex.errors import InputError
 from train.data import batches, build_dataset, crop_batch, data_workers
 from train.export import export
 from train.logging import Logger
@@ -189,7 +190,8 @@ def _distributed() -> tuple[int, int]:
 def _device(cfg: DictConfig, rank: int) -> torch.device:
     if cfg.trainer.device == "cuda":
         if not torch.cuda.is_available():
-            raise RuntimeError("trainer.device=cuda but no CUDA device is available")
+            raise InputError("trainer.device=cuda but no CUDA device is available here "
+                             "(trainer=cpu trains on the CPU)")
         torch.cuda.set_device(int(os.environ.get("LOCAL_RANK", rank)))
         return torch.device("cuda")
     return torch.device("cpu")
