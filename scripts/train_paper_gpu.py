@@ -83,8 +83,9 @@ def overrides(args: argparse.Namespace, steps: int, minutes: float) -> list[str]
     """The Hydra overrides of a training run of ``steps`` steps that stops after ``minutes``
     (with a checkpoint and the export) if it has not finished by then."""
     scale = steps / PAPER_STEPS
-    workers = args.workers if args.workers is not None else max(0, min(12, (os.cpu_count()
-                                                                             or 2) - 2))
+    workers = args.workers
+    if workers is None:  # the CPU cores less the main process's and one to spare
+        workers = max(0, min(12, (os.cpu_count() or 2) - 2))
     over = ["model=paper", "trainer=gpu", "loss=default", f"run_dir={args.run_dir}",
             f"trainer.max_steps={steps}", f"trainer.max_minutes={minutes:.3f}",
             f"trainer.schedule_scale={scale}", f"data.num_workers={workers}",
@@ -110,11 +111,7 @@ def _paper_steps(first: int, scale: float) -> int:
 
 
 def check(args: argparse.Namespace) -> None:
-    import torch
-
-    if args.device == "cuda" and not torch.cuda.is_available():
-        raise InputError("no CUDA GPU here: this command trains the paper preset on one GPU "
-                         "(--device cpu runs it on the CPU, as a dry run)")
+    """One-line errors for the arguments (a missing GPU is the trainer's own error)."""
     if not 0 < args.eval_minutes < args.minutes:
         raise InputError("--eval-minutes must be > 0 and below --minutes")
     for name in ("steps", "limit", "recon_limit"):

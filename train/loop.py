@@ -191,7 +191,7 @@ def _device(cfg: DictConfig, rank: int) -> torch.device:
     if cfg.trainer.device == "cuda":
         if not torch.cuda.is_available():
             raise InputError("trainer.device=cuda but no CUDA device is available here "
-                             "(trainer=cpu trains on the CPU)")
+                             "(trainer.device=cpu trains on the CPU)")
         torch.cuda.set_device(int(os.environ.get("LOCAL_RANK", rank)))
         return torch.device("cuda")
     return torch.device("cpu")
