@@ -44,3 +44,34 @@ def test_picture_row_shows_the_picture_then_each_methods_segments():
     assert np.abs(e_s[:, :5] - grey[:, :5, None]).max() <= 1  # E_s label 0: no texton, grey
     assert np.abs(km[:, :5] - grey[:, :5, None]).max() > 20  # k-means' 0 is a segment
     assert np.abs(e_s[:, 5:] - grey[:, 5:, None]).max() > 20  # segment 3 coloured
+
+
+def test_leopard_hand_count_follows_its_stated_rule():
+    """counts.csv's leopard number is the rule it states (scripts/probe_spots.py): dark
+    4-connected regions of grey < 80, border regions under half the median area left out
+    (the by-eye check of each region is not repeated here)."""
+    import probe_spots
+    from PIL import Image
+
+    with open(ROOT / "data" / "real_textures" / "counts.csv", newline="") as f:
+        stated = {r["file"]: int(r["elements"]) for r in csv.DictReader(f)}
+    grey = np.asarray(Image.open(ROOT / "data" / "real_textures" / "leopard.png")
+                      .convert("RGB")).astype(float).mean(2) / 255
+    labels, ids = probe_spots.spots(grey)
+    assert labels.max() == 301  # 37 of them border slivers
+    assert stated["leopard.png"] == len(ids) == 264
+    assert all(labels[labels == k].size > 0 for k in ids)
+
+
+def test_spots_leaves_out_only_small_border_regions():
+    import probe_spots
+
+    grey = np.ones((40, 40))
+    for y, x in ((10, 10), (10, 25), (25, 10)):  # three 5 x 5 spots inside
+        grey[y:y + 5, x:x + 5] = 0
+    grey[25:27, 25:27] = 0  # a small one inside: kept
+    grey[0:2, 30:32] = 0  # a small one on the border: a sliver
+    grey[35:40, 0:5] = 0  # a full-size one on the border: kept
+    labels, ids = probe_spots.spots(grey)
+    assert labels.max() == 6 and len(ids) == 5
+    assert labels[0, 30] not in ids and labels[26, 26] in ids and labels[39, 0] in ids
