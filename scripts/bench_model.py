@@ -16,6 +16,10 @@ busy shared machine; a data worker's CPU is not in it). Interleaving keeps the m
 out of the ratios as far as it can. ``--layout shipped`` runs each tree with the torch threads
 and data workers its own recipe sets (e.g. the old tree's 2 threads with the batch generated
 inline, against 1 thread and a data worker), i.e. what a user of each tree got on the machine.
+``--layout ddp`` runs the old tree as shipped and this tree as two data-parallel processes of one
+torch thread each (``torchrun --nproc_per_node=2 -m train ... trainer.threads=1``), each on half
+of the batch (the same global batch and the same items a step, train.data.StepSampler); a step's
+wall time is the slower rank's, its CPU time the two ranks' sum.
 
 Training: full steps of the training program (all losses on: reconstruction + LPIPS, entropy,
 compactness, reshuffle + texture + patch GAN, equivariance consistency + transformed
@@ -110,31 +114,46 @@ def latency(preset: str, size: int) -> float:
 def recipe_step_times(root: str, recipe: str, size: int, batch: int, steps: int,
                       extra: list[str], shipped: bool = False,
                       init: str | None = None, warmup: int = 1) -> list[float]:
-    """Wall seconds of ``steps`` training steps of a shipped recipe, built by the trainer code
-    and configs of the tree ``root`` (this process's import path), after ``warmup`` steps;
-    ``shipped``: with the torch threads the tree's recipe sets (else 1); ``init``: weights
-    loaded with the tree's own ``train.setup.init_from`` (else the recipe's random init)."""
+    """(wall, CPU) seconds of each of ``steps`` training steps of a shipped recipe, built by
+    the trainer code and configs of the tree ``root`` (this process's import path), after
+    ``warmup`` steps; ``shipped``: with the torch threads the tree's recipe sets (else 1);
+    ``init``: weights loaded with the tree's own ``train.setup.init_from`` (else the recipe's
+    random init). Under torchrun (``RANK`` set) each of the ranks trains on ``batch / world``
+    items as the trainer does, and every rank returns (the slowest rank's wall, the ranks'
+    summed CPU)."""
     sys.path.insert(0, str(HERE))
     from profile_train import build_parts, compose, step_settings
 
     from train import data as train_data
-    from train.loop import _batch, train_step
+    from train.loop import _batch, _distributed, train_step
 
-    cfg = compose(recipe, size, batch, extra, root=Path(root), threads=None if shipped else 1)
+    rank, world = _distributed()
+    if batch % world:
+        raise SystemExit(f"batch {batch} does not split over {world} ranks")
+    cfg = compose(recipe, size, batch // world, extra, root=Path(root),
+                  threads=None if shipped else 1)
     torch.set_num_threads(int(cfg.trainer.threads or os.cpu_count()))
-    parts = build_parts(cfg, init)
+    parts = build_parts(cfg, init, world)
     dataset = train_data.build_dataset(cfg.data, 1000 * batch)
     # as the tree's trainer chooses (no worker for a run read wholly from a data cache)
     workers = getattr(train_data, "data_workers", lambda _, n: n)(dataset, cfg.data.num_workers)
-    data = train_data.batches(dataset, batch, 0, 0, 1, workers)
+    data = train_data.batches(dataset, batch // world, 0, rank, world, workers)
     times = []
     for step in range(1, warmup + steps + 1):  # R1 (every 16th) falls on step 16, 32, ...
         t0, c0 = time.perf_counter(), time.process_time()
-        g = torch.Generator().manual_seed(step)
+        g = torch.Generator().manual_seed(step * world + rank)
         images, labels = _batch(next(data), cfg, parts, g)
         train_step(parts, images, labels, step_settings(parts, cfg, step), step, g)
         times.append((time.perf_counter() - t0, time.process_time() - c0))
-    return times[warmup:]
+    times = times[warmup:]
+    if world > 1:  # wall: the slower rank; CPU: both ranks' work
+        import torch.distributed as dist
+
+        wall, cpu = (torch.tensor([t[i] for t in times], dtype=torch.float64) for i in (0, 1))
+        dist.all_reduce(wall, op=dist.ReduceOp.MAX)
+        dist.all_reduce(cpu)
+        times = list(zip(wall.tolist(), cpu.tolist(), strict=True))
+    return times
 
 
 def compare(old: str, recipe: str, size: int, args) -> dict[str, tuple[float, float]]:
@@ -144,12 +163,19 @@ def compare(old: str, recipe: str, size: int, args) -> dict[str, tuple[float, fl
     runs: dict[str, list] = {"old": [], "new": []}
     for _ in range(args.rounds):
         for name, root in (("old", old), ("new", str(HERE.parent))):
-            cmd = [sys.executable, str(HERE / "bench_model.py"), "--child", root, "--recipes",
+            layout, launch = args.layout, [sys.executable]
+            if layout == "ddp":  # the old tree as shipped, this one data-parallel
+                layout = "shipped" if name == "old" else "ddp"
+                if name == "new":  # a free port: another torchrun may be training beside
+                    launch += ["-m", "torch.distributed.run", "--standalone",
+                               "--nproc_per_node=2"]
+            cmd = [*launch, str(HERE / "bench_model.py"), "--child", root, "--recipes",
                    recipe, "--sizes", str(size), "--batch", str(args.batch), "--steps",
-                   str(args.round_steps), "--warmup", str(args.warmup), "--layout", args.layout,
+                   str(args.round_steps), "--warmup", str(args.warmup), "--layout", layout,
                    *(["--init", args.init] if args.init else []),
                    *(["--set", *sets] if (sets := args.set + (
-                       args.set_new if name == "new" else [])) else [])]
+                       args.set_new if name == "new" else []) + (
+                       ["trainer.threads=1"] if layout == "ddp" else [])) else [])]
             env = {**os.environ, "PYTHONPATH": root}
             if args.layout == "one-thread":
                 env.update(OMP_NUM_THREADS="1", MKL_NUM_THREADS="1")
@@ -159,6 +185,8 @@ def compare(old: str, recipe: str, size: int, args) -> dict[str, tuple[float, fl
             line = json.loads(out.stdout.strip().splitlines()[-1])
             if line["root"] != root:
                 raise SystemExit(f"bench child imported {line['root']}, not {root}")
+            if line["world"] != (2 if layout == "ddp" else 1):
+                raise SystemExit(f"bench child ran {line['world']} processes in layout {layout}")
             times = line["times"]  # the round's mean: whole periods of any lazy term
             runs[name].append((statistics.mean(w for w, _ in times),
                                statistics.mean(c for _, c in times)))
@@ -195,10 +223,12 @@ def main() -> None:
     ap.add_argument("--set-new", nargs="*", default=[],
                     help="with --compare: extra Hydra overrides for this tree only (settings "
                     "the old tree does not have, e.g. loss.equivariance_every=4)")
-    ap.add_argument("--layout", choices=("one-thread", "shipped"), default="one-thread",
+    ap.add_argument("--layout", choices=("one-thread", "shipped", "ddp"), default="one-thread",
                     help="with --compare: one-thread = 1 torch thread in both trees (compute "
                     "per core); shipped = each tree's own recipe layout (its trainer.threads "
-                    "and data.num_workers), i.e. what a user of each tree got on this machine")
+                    "and data.num_workers), i.e. what a user of each tree got on this machine; "
+                    "ddp = the old tree as shipped, this one as 2 torchrun processes of 1 "
+                    "thread, half the batch each")
     ap.add_argument("--init", default=None, metavar="WEIGHTS",
                     help="with --compare: start each tree's model from these weights, so "
                     "that the step works on the textons of a trained model rather than of a "
@@ -217,11 +247,15 @@ def main() -> None:
                                   args.warmup)
         import train
 
-        print(json.dumps({"times": times, "root": str(Path(train.__file__).parents[1])}))
+        if os.environ.get("RANK", "0") == "0":
+            print(json.dumps({"times": times, "root": str(Path(train.__file__).parents[1]),
+                              "world": int(os.environ.get("WORLD_SIZE", 1))}))
         return
     if args.compare:
-        layout = ("1 torch thread per process" if args.layout == "one-thread" else
-                  "each tree's shipped threads and data workers")
+        layout = {"one-thread": "1 torch thread per process",
+                  "shipped": "each tree's shipped threads and data workers",
+                  "ddp": "the old tree's shipped threads and data workers, this tree as 2 DDP "
+                         "processes of 1 thread (wall: the slower rank; CPU: both)"}[args.layout]
         start = f"weights {args.init}" if args.init else "random init"
         print(f"torch {torch.__version__}, {layout}, CPU; batch {args.batch}; {start}; "
               f"s/step: the median over {args.rounds} rounds of each round's mean over "

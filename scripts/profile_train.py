@@ -159,13 +159,14 @@ def step_settings(parts, cfg, step: int = 0):
     return settings
 
 
-def build_parts(cfg, init: str | None = None):
+def build_parts(cfg, init: str | None = None, world: int = 1):
     """The trainer's parts of ``cfg`` on the CPU (seed 0), the model started from ``init``
-    weights when given (else the recipe's random init), with the imported tree's own code."""
+    weights when given (else the recipe's random init), with the imported tree's own code;
+    DDP-wrapped for ``world`` > 1 ranks (under torchrun)."""
     from train.setup import build, init_from
 
     torch.manual_seed(0)
-    parts = build(cfg, torch.device("cpu"))
+    parts = build(cfg, torch.device("cpu"), world)
     if init:
         init_from(parts.model, init, {})
     return parts

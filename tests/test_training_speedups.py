@@ -288,6 +288,27 @@ def test_bench_compare_layouts_set_the_recipes_threads():
         torch.set_num_threads(threads)
 
 
+def test_bench_compare_ddp_layout_times_two_ranks_on_half_batches():
+    """bench_model --compare --layout ddp: the old tree as shipped (one process), this tree
+    under torchrun as 2 ranks of 1 thread on half the batch each (compare checks each
+    child's world size)."""
+    import argparse
+    import sys
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[1]
+    sys.path.insert(0, str(root / "scripts"))
+    try:
+        import bench_model
+    finally:
+        sys.path.pop(0)
+    args = argparse.Namespace(rounds=1, batch=2, round_steps=1, warmup=0, layout="ddp",
+                              init=None, set=["data.num_workers=0"], set_new=[])
+    r = bench_model.compare(str(root), "segmenter", 32, args)
+    assert set(r) == {"old", "new"}
+    assert all(wall > 0 and cpu > 0 for wall, cpu in r.values())
+
+
 def test_bench_compare_starts_from_weights_after_warm_up_steps(monkeypatch):
     """bench_model --compare --init: the tree's own init_from loads the weights; --warmup
     steps run untimed."""
