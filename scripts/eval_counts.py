@@ -108,8 +108,7 @@ def main() -> None:
             ratios[m].append(n / hand)
         print(f"| {Path(name).stem} | {hand} | "
               + " | ".join(f"{n} ({n / hand:.2f}x)" for n in found.values()) + " |", flush=True)
-    print("| **mean per element** | | " + " | ".join(f"{np.mean(r):.2f}x" for r in
-                                                     ratios.values()) + " |")
+    print(summary(ratios))
     if args.pictures:
         from PIL import Image
 
@@ -119,6 +118,16 @@ def main() -> None:
         print(f"wrote {args.pictures}: a row per texture; picture | "
               + " | ".join(methods) + " | fit elements (grey: E_s's pixels of no texton, "
               "the background elements of the texture file)")
+
+
+def summary(ratios: dict[str, list[float]]) -> str:
+    """Two table rows over the textures, per method: the mean of found / hand-counted, and the
+    mean count error |found / hand - 1| (a method that finds too few on one texture and too
+    many on another is not right on average)."""
+    rows = [("mean per element", lambda r: f"{np.mean(r):.2f}x"),
+            ("mean count error", lambda r: f"{100 * np.mean(np.abs(np.subtract(r, 1))):.0f} %")]
+    return "\n".join(f"| **{name}** | | " + " | ".join(cell(r) for r in ratios.values()) + " |"
+                     for name, cell in rows)
 
 
 def picture_row(image: np.ndarray, labels: dict[str, np.ndarray], methods) -> np.ndarray:

@@ -75,3 +75,10 @@ def test_spots_leaves_out_only_small_border_regions():
     labels, ids = probe_spots.spots(grey)
     assert labels.max() == 6 and len(ids) == 5
     assert labels[0, 30] not in ids and labels[26, 26] in ids and labels[39, 0] in ids
+
+
+def test_summary_averages_the_ratio_and_the_count_error():
+    text = eval_counts.summary({"a": [0.5, 1.5], "b": [1.0, 2.0]})
+    mean, error = text.splitlines()
+    assert mean == "| **mean per element** | | 1.00x | 1.50x |"
+    assert error == "| **mean count error** | | 50 % | 50 % |"  # 1.00x on average, never right
