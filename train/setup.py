@@ -125,8 +125,9 @@ def use_amp(setting, device: torch.device) -> bool:
 
 def _ddp(module: torch.nn.Module) -> DDP:
     """DDP that tolerates parameters a step leaves unused (the critics in the segmenter
-    warm-up, the GAN heads when a term is off); torch's per-rank note that a step used them
-    all after all is expected here and silenced."""
+    warm-up, the GAN heads when a term is off). torch's note that a step used them all after
+    all is expected here: filtered where it comes as a Python warning; the reducer's C++ copy,
+    from the autograd thread, still prints once per rank at the first backward."""
     import warnings
 
     warnings.filterwarnings("ignore", message=".*find_unused_parameters=True.*")
