@@ -174,8 +174,7 @@ def compare(old: str, recipe: str, size: int, args) -> dict[str, tuple[float, fl
                    str(args.round_steps), "--warmup", str(args.warmup), "--layout", layout,
                    *(["--init", args.init] if args.init else []),
                    *(["--set", *sets] if (sets := args.set + (
-                       args.set_new if name == "new" else []) + (
-                       ["trainer.threads=1"] if layout == "ddp" else [])) else [])]
+                       args.set_new if name == "new" else [])) else [])]
             env = {**os.environ, "PYTHONPATH": root}
             if args.layout == "one-thread":
                 env.update(OMP_NUM_THREADS="1", MKL_NUM_THREADS="1")
