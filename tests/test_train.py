@@ -52,17 +52,21 @@ def test_gt_mask_supervision_path(tmp_path):
 
 
 @pytest.mark.slow
-def test_ddp_two_processes_on_cpu(tmp_path):
+@pytest.mark.parametrize("sync", [False, True], ids=["rank-batchnorm", "sync-batchnorm"])
+def test_ddp_two_processes_on_cpu(tmp_path, sync):
     env = {**os.environ, "OMP_NUM_THREADS": "1", "PYTHONPATH": str(ROOT)}
     cmd = [sys.executable, "-m", "torch.distributed.run", "--nproc_per_node=2",
-           "--master_port=29517", "-m", "train", *FAST, "trainer.max_steps=2",
-           "trainer.batch_size=2", f"run_dir={tmp_path}", "trainer.export=null",
+           f"--master_port={29517 + sync}", "-m", "train", *FAST, "trainer.max_steps=2",
+           "trainer.batch_size=2", f"run_dir={tmp_path}", f"trainer.sync_batchnorm={sync}",
            # the CPU presets' lazy terms: D_p has no loss on every other step (DDP must
            # allow unused parameters there)
-           "loss.equivariance_every=2", "loss.reshuffle_every=2"]
+           "loss.equivariance_every=2", "loss.reshuffle_every=2",
+           # the export recalibrates BatchNorm on rank 0 alone (no collective may wait there)
+           "trainer.bn_recalibration=4"]
     out = subprocess.run(cmd, cwd=ROOT, env=env, capture_output=True, text=True, timeout=600)
     assert out.returncode == 0, out.stderr[-2000:]
     assert load_training_checkpoint(tmp_path / "last.pt")["step"] == 2
+    assert (tmp_path / "model.safetensors").is_file()
 
 
 @pytest.mark.slow

@@ -22,6 +22,7 @@ from neuraltex.model_config import ModelConfig
 from neuraltex.nn_utils import adam, flush_subnormals, load_adam_state
 from train.loss_config import LossConfig
 from train.objective import CriticObjective, GeneratorObjective
+from train.sync_batchnorm import cross_rank_batchnorm
 
 
 @dataclass
@@ -65,6 +66,8 @@ def build(cfg: DictConfig, device: torch.device, world: int = 1) -> Parts:
     if device.type == "cpu":
         keep_freed_memory()  # large tensors reused, not page-faulted in again (neuraltex.heap)
     model, image_critic, patch_critic = build_model(mcfg, with_critics=True)
+    if world > 1 and T.get("sync_batchnorm"):  # statistics over the global batch
+        sync_batchnorm(model, device)
     critics = CriticObjective(image_critic, patch_critic, loss, mcfg.image_size).to(device)
     gen = GeneratorObjective(model, critics, loss).to(device)
     if T.get("channels_last"):  # NHWC convolutions: SPADE G ~1.26x less CPU (oneDNN)
@@ -121,6 +124,15 @@ def use_amp(setting, device: torch.device) -> bool:
     if device.type == "cuda":
         return True
     return device.type == "cpu" and bool(torch.ops.mkldnn._is_mkldnn_bf16_supported())
+
+
+def sync_batchnorm(model: torch.nn.Module, device: torch.device) -> None:
+    """E_FC's and G's BatchNorm over every rank's images (``trainer.sync_batchnorm``):
+    torch's SyncBatchNorm on GPUs, train.sync_batchnorm's on the CPU, where torch's refuses."""
+    if device.type == "cpu":
+        cross_rank_batchnorm(model)
+    else:
+        torch.nn.SyncBatchNorm.convert_sync_batchnorm(model)  # in place below the top module
 
 
 def _ddp(module: torch.nn.Module) -> DDP:
