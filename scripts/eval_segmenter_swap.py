@@ -9,6 +9,9 @@ the new E_s: the step after the swap).
 
     python scripts/eval_segmenter_swap.py --segmenter runs/long_segmenter/model.safetensors
     python scripts/eval_segmenter_swap.py --model runs/long_finetune/model.safetensors
+    python scripts/eval_segmenter_swap.py --model runs/long/model.safetensors --pictures recon.png
+
+``--pictures`` also writes the real textures' triplets (input | shipped | new), five a row.
 """
 
 from __future__ import annotations
@@ -58,6 +61,16 @@ def pictures(procedural: int, textures: Path) -> dict[str, list[torch.Tensor]]:
     return {"procedural": proc, "real (128 px)": real}
 
 
+def contact_sheet(xs, recons, path: Path, per_row: int = 5) -> None:
+    """input | shipped | new for each picture (3, H, W), ``per_row`` triplets a row."""
+    from torchvision.utils import make_grid
+
+    from neuraltex.imageio import save_image
+
+    tiles = [t for x, (ra, rb) in zip(xs, recons, strict=True) for t in (x, ra, rb)]
+    save_image(make_grid(tiles, nrow=3 * per_row, padding=2, pad_value=1.0), path)
+
+
 @cli_entry("eval_segmenter_swap")
 def main(argv: list[str] | None = None) -> int:
     from neuraltex.fit import psnr
@@ -73,6 +86,8 @@ def main(argv: list[str] | None = None) -> int:
                    help="how many procedural benchmark images")
     p.add_argument("--textures", type=Path, default=ROOT / "data" / "real_textures",
                    help="folder of real textures (PNG)")
+    p.add_argument("--pictures", type=Path,
+                   help="PNG of the real textures: input | shipped | new, five triplets a row")
     args = p.parse_args(argv)
     torch.set_num_threads(1)
     from neuraltex.model import load_model
@@ -83,10 +98,17 @@ def main(argv: list[str] | None = None) -> int:
     old = load_model(args.weights)
     new = load_model(args.model) if args.model else with_segmenter(args.weights, args.segmenter)
     label = "the new model" if args.model else "the new E_s"
+    if args.pictures:
+        from neuraltex.imageio import check_output_path
+
+        check_output_path(args.pictures)
     for name, xs in pictures(args.procedural, args.textures).items():
-        a, b = zip(*[(psnr(reconstruct(old, x).clamp(0, 1), x),
-                       psnr(reconstruct(new, x).clamp(0, 1), x))
-                     for x in tqdm(xs, desc=name, leave=False)], strict=True)
+        recons = [(reconstruct(old, x).clamp(0, 1), reconstruct(new, x).clamp(0, 1))
+                  for x in tqdm(xs, desc=name, leave=False)]
+        a, b = zip(*[(psnr(ra, x), psnr(rb, x)) for x, (ra, rb) in zip(xs, recons, strict=True)],
+                   strict=True)
+        if args.pictures and name.startswith("real"):
+            contact_sheet(xs, recons, args.pictures)
         wins = sum(nb > na for na, nb in zip(a, b, strict=True))
         print(f"{name}: {len(xs)} images, PSNR shipped {np.mean(a):.2f} dB, with {label} "
               f"{np.mean(b):.2f} dB (better on {wins})")

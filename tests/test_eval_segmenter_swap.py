@@ -52,10 +52,19 @@ def test_a_whole_model_compared_with_the_default(tmp_path, capsys):
     from neuraltex.model import DEFAULT_MODEL
 
     Image.fromarray(np.full((32, 32, 3), 90, np.uint8)).save(tmp_path / "flat.png")
+    Image.fromarray(np.full((32, 32, 3), 200, np.uint8)).save(tmp_path / "light.png")
+    sheet = tmp_path / "out" / "sheet.png"
     assert eval_segmenter_swap.main(["--model", str(DEFAULT_MODEL), "--procedural", "1",
-                                     "--textures", str(tmp_path)]) == 0
+                                     "--textures", str(tmp_path), "--pictures", str(sheet)]) == 0
     out = capsys.readouterr().out
     assert "with the new model" in out and "better on 0" in out
+    pic = np.asarray(Image.open(sheet).convert("RGB")).astype(int)
+    assert pic.shape == (2 + 130, 2 + 6 * 130, 3)  # two triplets of 128 px tiles in one row
+    tile = pic[2:130, 2:130]  # the first input, resized to 128 px: flat grey 90
+    assert np.abs(tile - 90).max() <= 1
+    assert np.abs(pic[2:130, 2 + 3 * 130:130 + 3 * 130] - 200).max() <= 1  # the second input
+    # the same model twice: its two reconstructions are the same picture
+    assert np.array_equal(pic[2:130, 132:260], pic[2:130, 262:390])
 
 
 def test_a_missing_model_is_one_line_and_exit_2(capsys):
