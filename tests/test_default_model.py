@@ -61,6 +61,24 @@ def test_encoding_an_easy_benchmark_image_gives_a_plausible_texton_count(model):
         assert 0.5 * truth <= n <= 2 * truth, (it.index, n, truth)
 
 
+@pytest.mark.parametrize("rgb", [(0.05, 0.05, 0.05), (0.4, 0.08, 0.05), (0.8, 0.5, 0.3),
+                                 (0.9, 0.9, 0.95)], ids=["near-black", "dark-red", "tan", "white"])
+def test_a_flat_picture_has_no_blob_at_its_centre(model, rgb):
+    """The background texton's Gaussian sits at the picture's centre, where G renders its
+    appearance code alone. A decoder that gets that code's colour wrong paints a blob there
+    (the long stage 2, MODEL.md: 0.245 mean error in the centre of the near-black picture
+    against 0.047 around it); the shipped one must not."""
+    g = torch.Generator().manual_seed(0)
+    x = (torch.tensor(rgb)[:, None, None] + 0.03 * torch.randn(3, 128, 128, generator=g))
+    x = x.clamp(0, 1)[None]
+    with torch.no_grad():
+        error = (model.reconstruct(x)[0] - x[0]).abs().mean(0)
+    yy, xx = torch.meshgrid(torch.arange(128.0), torch.arange(128.0), indexing="ij")
+    r2 = (yy - 63.5) ** 2 + (xx - 63.5) ** 2
+    centre, ring = error[r2 < 20**2].mean(), error[(r2 >= 28**2) & (r2 < 48**2)].mean()
+    assert centre < 1.5 * ring + 0.01, (float(centre), float(ring))
+
+
 def test_tampered_weights_are_rejected(tmp_path, capsys):
     bad = tmp_path / "tampered.safetensors"
     shutil.copy(DEFAULT_MODEL, bad)
