@@ -7,6 +7,7 @@ from dataclasses import replace
 import pytest
 import torch
 
+from neuraltex.checkpoint import export_model
 from neuraltex.fit import FitSettings, fit_texture
 from neuraltex.fit_prior import (
     FitPriorError,
@@ -144,6 +145,30 @@ def test_trainer_resumes_exactly_after_an_interrupt(tmp_path, tiny_checkpoint, m
     assert all(torch.equal(a[k], b[k]) for k in a)
     # a resume with other settings is refused with one line
     assert run_trainer(tmp_path, weights, "--iterations", "5", "--out", out) == 2
+
+
+def test_a_run_state_belongs_to_its_weights(tmp_path, tiny_checkpoint, monkeypatch, capsys):
+    """The finished state of one model's run must not become another model's prior: by
+    default each weights file has its own state; a state named for other weights is refused."""
+    a, b = tmp_path / "a.safetensors", tmp_path / "b.safetensors"
+    a.write_bytes(open(tiny_checkpoint, "rb").read())
+    model = load_model(a)
+    with torch.no_grad():
+        for p in model.generator.parameters():
+            p.add_(0.01)
+    export_model(b, model.state_dict(), model.config, model.info)
+    monkeypatch.chdir(tmp_path)
+    common = ["--size", "32", "--tasks", "2", "--inner-steps", "2", "--iterations", "2"]
+    assert trainer.main(["--weights", str(a), *common]) == 0
+    assert trainer.main(["--weights", str(b), *common]) == 0
+    assert len(list((tmp_path / "runs" / "fit_prior").glob("*.pt"))) == 2
+    pa, pb = load_model(a).fit_prior[0], load_model(b).fit_prior[0]
+    assert any(not torch.equal(pa[k], pb[k]) for k in pa)  # each learned from its own G
+    capsys.readouterr()
+    shared = ["--state", str(tmp_path / "shared.pt")]
+    assert trainer.main(["--weights", str(a), *common, *shared]) == 0
+    assert trainer.main(["--weights", str(b), *common, *shared]) == 2
+    assert "a run for other weights or settings" in capsys.readouterr().err
 
 
 def test_trainer_rejects_bad_arguments(capsys):

@@ -11,7 +11,9 @@ and learning rates), then move phi toward the tuned G,
 so phi becomes a point from which a few steps reach any texture's G. The result is written
 beside the weights as their fit prior (:mod:`neuraltex.fit_prior`), which ``fit`` then starts
 from. The run state (phi, the iteration, the random stream) is saved every
-``--save-every`` iterations and at Ctrl-C; the same command resumes it.
+``--save-every`` iterations and at Ctrl-C; the same command resumes it. A state belongs to
+its weights (their SHA-256 names the default state file and is part of its settings), so a
+prior for other weights never resumes, or finishes as, another model's run.
 
 Examples:
     python -m train.fit_prior                                   # the shipped prior's recipe
@@ -22,6 +24,7 @@ from __future__ import annotations
 
 import argparse
 import copy
+import hashlib
 import os
 import sys
 import time
@@ -45,9 +48,10 @@ def parse(argv: list[str] | None = None) -> argparse.Namespace:
     ap.add_argument("--out", type=Path,
                     help="where to write the prior (default: beside --weights, "
                     "NAME.fit_prior.safetensors)")
-    ap.add_argument("--state", type=Path, default=Path("runs/fit_prior/state.pt"),
+    ap.add_argument("--state", type=Path,
                     help="run state, saved as it goes and resumed from (default "
-                    "runs/fit_prior/state.pt)")
+                    "runs/fit_prior/<the first 16 hex digits of --weights' SHA-256>.pt: a run "
+                    "resumes only its own model's state)")
     ap.add_argument("--tasks", type=int, default=48,
                     help="procedural textures drawn from (default 48)")
     ap.add_argument("--task-seed", type=int, default=7,
@@ -115,6 +119,9 @@ def run(args: argparse.Namespace) -> Path:
 
     torch.set_num_threads(args.threads)
     model = load_model(args.weights)
+    args.weights_sha256 = file_sha256(args.weights)
+    if args.state is None:
+        args.state = Path("runs/fit_prior") / f"{args.weights_sha256[:16]}.pt"
     phi = start_generator(model, use_prior=False)  # (re)learned from the model's own G
     cfg = FitSettings(steps=args.inner_steps)
     rng = torch.Generator().manual_seed(args.seed)
@@ -122,8 +129,8 @@ def run(args: argparse.Namespace) -> Path:
     if args.state.is_file():
         state = load_weights_only(args.state, InputError, "fit prior run state")
         if state.get("recipe") != recipe(args):
-            raise InputError(f"{args.state}: a run with other settings; remove it or pass "
-                             "another --state")
+            raise InputError(f"{args.state}: a run for other weights or settings; remove "
+                             "it or pass another --state")
         phi.load_state_dict(state["phi"])
         rng.set_state(state["rng"])
         first = int(state["iteration"])
@@ -153,8 +160,18 @@ def run(args: argparse.Namespace) -> Path:
 
 def recipe(args: argparse.Namespace) -> dict:
     """The settings a run state belongs to (a resume must not change them)."""
-    return {k: getattr(args, k) for k in ("tasks", "task_seed", "size", "iterations",
-                                          "inner_steps", "epsilon", "seed")}
+    return {k: getattr(args, k, None)  # weights_sha256: set by run() once the file is read
+            for k in ("weights_sha256", "tasks", "task_seed", "size", "iterations",
+                      "inner_steps", "epsilon", "seed")}
+
+
+def file_sha256(path: Path) -> str:
+    """SHA-256 of a file's bytes (the model a run state belongs to)."""
+    digest = hashlib.sha256()
+    with open(path, "rb") as f:
+        for block in iter(lambda: f.read(1 << 20), b""):
+            digest.update(block)
+    return digest.hexdigest()
 
 
 def save_state(args: argparse.Namespace, phi: torch.nn.Module, rng: torch.Generator,
