@@ -24,7 +24,6 @@ from __future__ import annotations
 
 import argparse
 import copy
-import hashlib
 import os
 import sys
 import time
@@ -33,7 +32,7 @@ from pathlib import Path
 import torch
 
 from neuraltex.errors import InputError, one_line
-from neuraltex.fileio import atomic_path, load_weights_only
+from neuraltex.fileio import atomic_path, file_sha256, load_weights_only
 from neuraltex.fit import FitSettings, choose_segments, first_offsets, tuning, tuning_step
 from neuraltex.fit_prior import prior_path, save_prior, start_generator
 from neuraltex.model import DEFAULT_MODEL, load_model
@@ -164,14 +163,6 @@ def recipe(args: argparse.Namespace) -> dict:
             for k in ("weights_sha256", "tasks", "task_seed", "size", "iterations",
                       "inner_steps", "epsilon", "seed")}
 
-
-def file_sha256(path: Path) -> str:
-    """SHA-256 of a file's bytes (the model a run state belongs to)."""
-    digest = hashlib.sha256()
-    with open(path, "rb") as f:
-        for block in iter(lambda: f.read(1 << 20), b""):
-            digest.update(block)
-    return digest.hexdigest()
 
 
 def save_state(args: argparse.Namespace, phi: torch.nn.Module, rng: torch.Generator,

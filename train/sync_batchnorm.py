@@ -33,15 +33,15 @@ class _GlobalBatchNorm(torch.autograd.Function):
                           torch.tensor([xf.numel() // c], dtype=torch.float64)])
         dist.all_reduce(sums, group=group)
         count = sums[-1]
-        mean = sums[:c] / count
-        var = (sums[c:2 * c] / count - mean.square()).clamp_min(0)
-        invstd = (var + eps).rsqrt().float()
-        xhat = (xf - mean.float()[:, None, None]) * invstd[:, None, None]
+        mean64 = sums[:c] / count
+        var = (sums[c:2 * c] / count - mean64.square()).clamp_min(0).float()
+        mean = mean64.float()
+        invstd = (var + eps).rsqrt()
+        xhat = (xf - mean[:, None, None]) * invstd[:, None, None]
         y = xhat if weight is None else xhat * weight.float()[:, None, None]
         y = y if bias is None else y + bias.float()[:, None, None]
         ctx.save_for_backward(xhat, invstd, weight)
         ctx.count, ctx.group, ctx.dtype = count, group, x.dtype
-        mean, var = mean.float(), var.float()
         ctx.mark_non_differentiable(mean, var, count)
         return y.to(x.dtype), mean, var, count
 
