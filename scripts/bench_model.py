@@ -153,6 +153,8 @@ def recipe_step_times(root: str, recipe: str, size: int, batch: int, steps: int,
         dist.all_reduce(wall, op=dist.ReduceOp.MAX)
         dist.all_reduce(cpu)
         times = list(zip(wall.tolist(), cpu.tolist(), strict=True))
+        import train.loop  # a tree older than its _leave_distributed exits with groups alive
+        getattr(train.loop, "_leave_distributed", lambda: None)()
     return times
 
 
@@ -180,7 +182,9 @@ def compare(old: str, recipe: str, size: int, args) -> dict[str, tuple[float, fl
                 env.update(OMP_NUM_THREADS="1", MKL_NUM_THREADS="1")
             out = subprocess.run(cmd, cwd=root, env=env, capture_output=True, text=True)
             if out.returncode:
-                raise SystemExit(f"bench child failed ({root}):\n{out.stderr[-2000:]}")
+                err = out.stderr if len(out.stderr) < 4000 else (  # the cause is often
+                    f"{out.stderr[:1500]}\n...\n{out.stderr[-2000:]}")  # first, torchrun's last
+                raise SystemExit(f"bench child failed ({root}):\n{err}")
             line = json.loads(out.stdout.strip().splitlines()[-1])
             if line["root"] != root:
                 raise SystemExit(f"bench child imported {line['root']}, not {root}")

@@ -51,6 +51,25 @@ def test_gt_mask_supervision_path(tmp_path):
     assert "mask" in logs and logs["mask"] > 0
 
 
+def test_a_distributed_run_destroys_its_process_groups(tmp_path, monkeypatch):
+    """Under torchrun the trainer leaves no gloo group alive: a process exiting with one can
+    abort in its destructor ("terminate called without an active exception", SIGABRT) after
+    a finished run (CI, session 26). Here a one-rank world, set up as torchrun does."""
+    import socket
+
+    import torch.distributed as dist
+
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    for key, value in {"RANK": "0", "LOCAL_RANK": "0", "WORLD_SIZE": "1",
+                       "MASTER_ADDR": "127.0.0.1", "MASTER_PORT": str(port)}.items():
+        monkeypatch.setenv(key, value)
+    logs = run(_cfg(tmp_path, "trainer.max_steps=1", "trainer.export=null"))
+    assert "recon" in logs
+    assert not dist.is_initialized()
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("sync", [False, True], ids=["rank-batchnorm", "sync-batchnorm"])
 def test_ddp_two_processes_on_cpu(tmp_path, sync):

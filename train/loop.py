@@ -44,6 +44,13 @@ def run(cfg: DictConfig) -> dict[str, float]:
     checkpoint of the last finished step and raises :class:`Interrupted`."""
     check_inputs(cfg.trainer, Path(cfg.run_dir))
     rank, world = _distributed()
+    try:
+        return _run(cfg, rank, world)
+    finally:  # every gloo thread joined before the interpreter exits (else: SIGABRT)
+        _leave_distributed()
+
+
+def _run(cfg: DictConfig, rank: int, world: int) -> dict[str, float]:
     device = _device(cfg, rank)
     if cfg.trainer.threads:
         torch.set_num_threads(int(cfg.trainer.threads))
@@ -74,7 +81,7 @@ def run(cfg: DictConfig) -> dict[str, float]:
         export(parts, cfg, dataset, done, progress.wall_before + time.time() - t0, world,
                logger.backbone, progress)
     logger.close()
-    if world > 1:
+    if world > 1:  # no rank leaves while rank 0 exports
         dist.barrier()
     return logs
 
@@ -185,6 +192,14 @@ def _distributed() -> tuple[int, int]:
         backend = "nccl" if torch.cuda.is_available() else "gloo"
         dist.init_process_group(backend=backend)
     return dist.get_rank(), dist.get_world_size()
+
+
+def _leave_distributed() -> None:
+    """Destroys the process groups (the default one and any made from it, such as the
+    cross-rank BatchNorm's). A process that exits with a gloo group alive can abort in its
+    destructor ("terminate called without an active exception"), failing a finished run."""
+    if dist.is_available() and dist.is_initialized():
+        dist.destroy_process_group()
 
 
 def _device(cfg: DictConfig, rank: int) -> torch.device:
