@@ -169,19 +169,26 @@ def _fmt(x, column: str = "") -> str:
     return f"{x:.0f}" if isinstance(x, int) or abs(x) >= 100 else f"{x:.2f}"
 
 
+def _named(names: list[str], label: str) -> str:
+    """' (label: a, b)' naming the images a count is made of; '' for none."""
+    return f" ({label + ': ' if label else ''}{', '.join(names)})" if names else ""
+
+
 def summary(rows: list[tuple[str, dict]]) -> list[str]:
     r = [row for _, row in rows]
     n = len(r)
     mean = lambda key: float(np.mean([x[key] for x in r]))  # noqa: E731
-    visible = sum(x["swd_shuf"] <= 1.25 * x["swd_rec"] and x["change"] >= VISIBLE for x in r)
+    over = [name for name, x in rows if x["swd_shuf"] > 1.25 * x["swd_rec"]]
+    visible = [name for name, x in rows
+               if x["swd_shuf"] <= 1.25 * x["swd_rec"] and x["change"] >= VISIBLE]
     return [
         f"mean PSNR: fit {mean('fit'):.2f} dB (G alone {mean('plain'):.2f}) | flat "
         f"{mean('flat'):.2f} | blur {mean('blur'):.2f} "
         f"| kmeans8 {mean('kmeans8'):.2f}; target blur + 3 = {mean('blur') + 3:.2f}",
         f"fit above flat on {sum(x['fit'] > x['flat'] for x in r)}/{n}, above blur on "
         f"{sum(x['fit'] > x['blur'] for x in r)}/{n}",
-        f"reshuffle SWD <= 1.25 x reconstruction SWD on "
-        f"{sum(x['swd_shuf'] <= 1.25 * x['swd_rec'] for x in r)}/{n}; below random placement "
+        f"reshuffle SWD <= 1.25 x reconstruction SWD on {n - len(over)}/{n}"
+        f"{_named(over, 'over')}; below random placement "
         f"on {sum(x['swd_shuf'] < x['swd_rand'] for x in r)}/{n}; below the texton reshuffle on "
         f"{sum(x['swd_shuf'] < x['swd_shuf_t'] for x in r)}/{n} (mean SWD "
         f"{mean('swd_shuf'):.2f} vs {mean('swd_shuf_t'):.2f}; the texton reshuffle is "
@@ -197,7 +204,7 @@ def summary(rows: list[tuple[str, dict]]) -> list[str]:
         f"/{n} (mean SWD {mean('swd_shuf_src'):.2f} vs {mean('swd_shuf'):.2f}); mean change "
         f"against the input {mean('change_src'):.3f}",
         f"within 1.25 x and changing the picture (mean |reshuffle - reconstruction| >= "
-        f"{VISIBLE}): {visible}/{n}",
+        f"{VISIBLE}): {len(visible)}/{n}{_named(visible, '')}",
         f"fit seconds mean {mean('seconds'):.1f} (max {max(x['seconds'] for x in r):.1f}); "
         f"texture file {mean('kib'):.0f} KiB (max {max(x['kib'] for x in r):.0f}); reshuffle "
         f"(decode + swap) {mean('edit_s'):.2f} s",
