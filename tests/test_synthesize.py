@@ -272,8 +272,11 @@ def test_an_image_input_pastes_its_own_pixels(files, tmp_path):
     for path, extra in ((out, []), (dec, ["--decode-only"])):
         assert main(["synthesize", str(files / "b.png"), "-o", str(path), "--quiet",
                      "--iterations", "1", "--scale", "2", *extra]) == 0
-    assert _share_of_input_colours(out, files / "b.png") > 0.3  # 40 % at 32 x 40: soft edges
-    assert _share_of_input_colours(dec, files / "b.png") < 0.05
+    pasted = _share_of_input_colours(out, files / "b.png")
+    assert pasted > 0.3  # 71 % at 32 x 40: soft edges
+    # A decoder that renders the picture well hits some of its exact colours too (the
+    # session-27 default: 8 %, the one before: 2 %); the pastes bring most of them
+    assert _share_of_input_colours(dec, files / "b.png") < 0.25 * pasted
 
 
 def test_source_of_a_texture_file_brings_its_pixels_and_is_checked(files, tmp_path, capsys):
