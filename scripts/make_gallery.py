@@ -79,12 +79,16 @@ class Gallery:
                                      ("replace", self.dec(transfer(ts, ta, "replace")))]))
 
     def reshuffle(self) -> None:
+        """As ``neuraltex reshuffle`` does on a plain image (--by textons): appearance
+        features trade places within texton kinds, the background keeping its own."""
         from neuraltex.reshuffle import reshuffle
+        from neuraltex.texton_kinds import texton_kinds
 
         x = texture(2, "discs")
         t = self.enc(x)
+        kinds = texton_kinds(t, channels=self.model.generator.feature_channels - 2)
         self.save("reshuffle", strip([("input", x), ("reconstruction", self.dec(t))]
-                                     + [(f"seed {i}", self.dec(reshuffle(t, seed=i)))
+                                     + [(f"seed {i}", self.dec(reshuffle(t, seed=i, kinds=kinds)))
                                         for i in range(3)]))
 
     def interpolate(self) -> None:
