@@ -125,6 +125,7 @@ def recipe_step_times(root: str, recipe: str, size: int, batch: int, steps: int,
     from profile_train import build_parts, compose, step_settings
 
     from train import data as train_data
+    from train import loop as train_loop
     from train.loop import _batch, _distributed, train_step
 
     rank, world = _distributed()
@@ -153,8 +154,8 @@ def recipe_step_times(root: str, recipe: str, size: int, batch: int, steps: int,
         dist.all_reduce(wall, op=dist.ReduceOp.MAX)
         dist.all_reduce(cpu)
         times = list(zip(wall.tolist(), cpu.tolist(), strict=True))
-        import train.loop  # a tree older than its _leave_distributed exits with groups alive
-        getattr(train.loop, "_leave_distributed", lambda: None)()
+        # a tree older than its _leave_distributed exits with its groups alive
+        getattr(train_loop, "_leave_distributed", lambda: None)()
     return times
 
 

@@ -164,7 +164,6 @@ def recipe(args: argparse.Namespace) -> dict:
                       "inner_steps", "epsilon", "seed")}
 
 
-
 def save_state(args: argparse.Namespace, phi: torch.nn.Module, rng: torch.Generator,
                iteration: int) -> None:
     with atomic_path(args.state) as tmp:
